@@ -1,0 +1,195 @@
+//! Scenario: vehicle, boundary conditions, discretization and solver settings.
+//!
+//! A scenario is read from TOML (see `scenarios/paper.toml`), then validated:
+//! every field is checked against an allowed range before any mathematics runs,
+//! so bad input fails with a message that names the field, its value and the range.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::InputError;
+
+/// Vehicle parameters (paper Table 1, plus the drag coefficient from NOTES.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Vehicle {
+    /// Dry mass m_dry [kg]; the final mass must stay at or above it (Eq. 4).
+    pub dry_mass_kg: f64,
+    /// Body length l_s [m].
+    pub length_m: f64,
+    /// Body radius r_s [m].
+    pub radius_m: f64,
+    /// Centre-of-mass position l_cg, measured from the engine gimbal [m].
+    pub cg_m: f64,
+    /// Centre-of-pressure position l_cp, measured like l_cg [m].
+    pub cp_m: f64,
+    /// Maximum thrust T_max [N].
+    pub max_thrust_n: f64,
+    /// Minimum thrust T_min [N] (the engine cannot throttle below it, Eq. 5).
+    pub min_thrust_n: f64,
+    /// Specific impulse I_sp [s].
+    pub isp_s: f64,
+    /// Maximum nozzle (gimbal) angle δ_max [deg].
+    pub max_gimbal_deg: f64,
+    /// Maximum nozzle angle rate χ_max [deg/s].
+    pub max_gimbal_rate_degps: f64,
+    /// Lumped drag coefficient C_LD = ½·ρ·c_D·A [kg/m] (Eq. 2).
+    pub drag_coefficient_kgpm: f64,
+}
+
+/// Planet constants.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Environment {
+    /// Gravitational acceleration g0 [m/s²], also used in I_sp·g0.
+    pub g0_mps2: f64,
+}
+
+/// The state when the landing burn starts (Eq. 4, x(t0) = x0).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialState {
+    pub x_m: f64,
+    pub z_m: f64,
+    pub vx_mps: f64,
+    pub vz_mps: f64,
+    /// Pitch from the vertical; 90° is belly-first (horizontal).
+    pub theta_deg: f64,
+    pub pitch_rate_degps: f64,
+    pub mass_kg: f64,
+    /// Nozzle angle δ at ignition.
+    pub gimbal_deg: f64,
+}
+
+/// The touchdown state (Eq. 4, x|1:6(t_f) = x_f). Mass is free above m_dry.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TerminalState {
+    pub x_m: f64,
+    pub z_m: f64,
+    pub vx_mps: f64,
+    pub vz_mps: f64,
+    pub theta_deg: f64,
+    pub pitch_rate_degps: f64,
+}
+
+/// Which form of the thrust-direction constraint the subproblem uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Formulation {
+    /// Physically exact (default): controls σ = T/m and χ = δ̇; the thrust
+    /// direction θ + δ stays inside the dynamics and is linearized by SCvx.
+    /// ‖T‖ = σ holds by construction, and thrust cannot point backwards.
+    #[default]
+    Exact,
+    /// The paper's P4 (Eq. 26–30): controls Txm, Tzm, σ, χ with the lossless
+    /// cone ‖(Txm, Tzm)‖ ≤ σ and the linearized direction constraint (Eq. 27).
+    Paper,
+}
+
+/// Discretization: LGR collocation with N points (Section 3.2).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Discretization {
+    /// Number of LGR collocation points N (4 to 100).
+    pub nodes: usize,
+    /// Initial guess of the final time t_f [s].
+    pub tf_guess_s: f64,
+    /// Initial guess of the final mass [kg] for the straight-line guess.
+    pub final_mass_guess_kg: f64,
+}
+
+/// SCvx settings (Section 3.4, with the trust-region rule of Mao et al. 2016).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverSettings {
+    pub formulation: Formulation,
+    /// Iteration limit; past it the status is `not_converged`.
+    pub max_iterations: usize,
+    /// Convergence: scaled step ‖Δz‖∞ below this.
+    pub step_tolerance: f64,
+    /// Convergence: scaled virtual control ‖ν‖∞ below this.
+    pub virtual_control_tolerance: f64,
+    /// Exact-penalty weight λ on ‖ν‖₁ (scaled units).
+    pub virtual_control_weight: f64,
+    /// Initial trust-region radius (scaled ∞-norm).
+    pub trust_region_initial: f64,
+    /// Smallest trust-region radius before the iteration stops.
+    pub trust_region_min: f64,
+    /// Largest trust-region radius.
+    pub trust_region_max: f64,
+    /// Acceptance-ratio thresholds ρ0 < ρ1 < ρ2 (Mao, Szmuk, Açıkmeşe 2016).
+    pub rho0: f64,
+    pub rho1: f64,
+    pub rho2: f64,
+    /// Radius shrink factor (>1) when ρ < ρ1, and growth factor (>1) when ρ ≥ ρ2.
+    pub shrink: f64,
+    pub grow: f64,
+    /// Accepted relaxation gap max(1 − ‖T‖/σ) of a returned solution.
+    pub relaxation_gap_tolerance: f64,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        Self {
+            formulation: Formulation::Exact,
+            max_iterations: 40,
+            step_tolerance: 1e-4,
+            virtual_control_tolerance: 1e-7,
+            virtual_control_weight: 1e3,
+            trust_region_initial: 1.0,
+            trust_region_min: 1e-6,
+            trust_region_max: 10.0,
+            rho0: 0.0,
+            rho1: 0.25,
+            rho2: 0.7,
+            shrink: 2.0,
+            grow: 2.0,
+            relaxation_gap_tolerance: 1e-6,
+        }
+    }
+}
+
+/// A whole landing problem.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub name: String,
+    pub vehicle: Vehicle,
+    pub environment: Environment,
+    pub initial: InitialState,
+    pub terminal: TerminalState,
+    pub discretization: Discretization,
+    #[serde(default)]
+    pub solver: SolverSettings,
+}
+
+/// The paper's case, as shipped in `scenarios/paper.toml`.
+pub const PAPER_TOML: &str = include_str!("../../../scenarios/paper.toml");
+
+impl Scenario {
+    /// The paper's case (Table 1, Section 4 boundary conditions, C_LD = 195.52 kg/m).
+    pub fn paper() -> Self {
+        Self::from_toml_str(PAPER_TOML).expect("the shipped paper scenario is valid")
+    }
+
+    /// Parse and validate a scenario from TOML text.
+    pub fn from_toml_str(text: &str) -> Result<Self, InputError> {
+        let scenario: Scenario = toml::from_str(text).map_err(|e| InputError::toml(text, e))?;
+        scenario.validate()?;
+        Ok(scenario)
+    }
+
+    /// Read, parse and validate a scenario file.
+    pub fn from_file(path: &std::path::Path) -> Result<Self, InputError> {
+        let text = std::fs::read_to_string(path).map_err(|e| InputError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        Self::from_toml_str(&text)
+    }
+
+    /// Check every field against its allowed range.
+    pub fn validate(&self) -> Result<(), InputError> {
+        crate::validate::scenario(self)
+    }
+}
