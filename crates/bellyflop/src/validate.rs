@@ -1,8 +1,527 @@
 //! Range checks for every scenario field.
+//!
+//! Validation runs in two passes:
+//!
+//! 1. every numeric field is checked on its own against a fixed range
+//!    ([`InputError::OutOfRange`]); NaN and ±inf are always rejected, so the
+//!    second pass only ever compares finite numbers;
+//! 2. fields that must agree with each other are compared
+//!    ([`InputError::Inconsistent`]), e.g. T_min ≤ T_max or m_dry < m0.
+//!
+//! The ranges are deliberately generous: they reject numbers that cannot
+//! describe a rocket landing (or would break the numerics), not merely
+//! unusual vehicles. The paper's case (Chen, Ma, Wang, Su 2023, Table 1 and
+//! Section 4) sits well inside every range.
 use crate::error::InputError;
-use crate::scenario::Scenario;
+use crate::scenario::{
+    Discretization, Environment, InitialState, Scenario, SolverSettings, TerminalState, Vehicle,
+};
 
-/// Check every field of a scenario against its allowed range.
-pub fn scenario(_s: &Scenario) -> Result<(), InputError> {
+/// An allowed interval for one floating-point field.
+#[derive(Debug, Clone, Copy)]
+struct Range {
+    lo: f64,
+    hi: f64,
+    lo_open: bool,
+    hi_open: bool,
+    unit: &'static str,
+}
+
+impl Range {
+    /// `(lo, hi]`
+    const fn open_closed(lo: f64, hi: f64, unit: &'static str) -> Self {
+        Self {
+            lo,
+            hi,
+            lo_open: true,
+            hi_open: false,
+            unit,
+        }
+    }
+    /// `[lo, hi]`
+    const fn closed(lo: f64, hi: f64, unit: &'static str) -> Self {
+        Self {
+            lo,
+            hi,
+            lo_open: false,
+            hi_open: false,
+            unit,
+        }
+    }
+    /// `(lo, hi)`
+    const fn open(lo: f64, hi: f64, unit: &'static str) -> Self {
+        Self {
+            lo,
+            hi,
+            lo_open: true,
+            hi_open: true,
+            unit,
+        }
+    }
+    /// `[lo, hi)`
+    const fn closed_open(lo: f64, hi: f64, unit: &'static str) -> Self {
+        Self {
+            lo,
+            hi,
+            lo_open: false,
+            hi_open: true,
+            unit,
+        }
+    }
+
+    fn check(&self, field: &str, value: f64) -> Result<(), InputError> {
+        in_range(
+            field,
+            value,
+            self.lo,
+            self.hi,
+            self.lo_open,
+            self.hi_open,
+            self.unit,
+        )
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Vehicle (paper Table 1). Bounds cover anything from a small test hopper to
+// vehicles well beyond Super Heavy (≈ 5e6 kg fuelled, ≈ 7.5e7 N thrust).
+// ---------------------------------------------------------------------------
+
+/// Masses (dry mass, initial mass, final-mass guess): positive, and at most
+/// 1e7 kg, about twice the fuelled mass of the largest rocket ever flown.
+const MASS: Range = Range::open_closed(0.0, 1e7, "kg");
+/// Body length, radius and the cg/cp stations: positive (a zero lever arm or
+/// radius makes the pitch dynamics degenerate), at most 1 km.
+const LENGTH: Range = Range::open_closed(0.0, 1000.0, "m");
+/// Maximum thrust: positive (a zero T_max leaves no control at all), at most
+/// 1e9 N, over ten times any engine cluster built.
+const MAX_THRUST: Range = Range::open_closed(0.0, 1e9, "N");
+/// Minimum thrust: may be 0 (a deep-throttling engine, no lower bound in
+/// Eq. 5), same upper bound as T_max.
+const MIN_THRUST: Range = Range::closed(0.0, 1e9, "N");
+/// Specific impulse: positive (the mass-flow equation ṁ = −T/(I_sp·g0)
+/// divides by it), at most 1000 s, above any chemical engine (≈ 465 s).
+const ISP: Range = Range::open_closed(0.0, 1000.0, "s");
+/// Maximum gimbal angle δ_max: positive (otherwise the engine cannot steer)
+/// and below 90°, where the nozzle would point sideways.
+const MAX_GIMBAL: Range = Range::open(0.0, 90.0, "deg");
+/// Maximum gimbal rate χ_max: positive, at most one turn per second.
+const GIMBAL_RATE: Range = Range::open_closed(0.0, 360.0, "deg/s");
+/// Lumped drag coefficient C_LD = ½·ρ·c_D·A: zero (vacuum) is allowed; 1e5
+/// kg/m is ~500 times the paper's 195.52 kg/m.
+const DRAG: Range = Range::closed(0.0, 1e5, "kg/m");
+
+// ---------------------------------------------------------------------------
+// Environment.
+// ---------------------------------------------------------------------------
+
+/// g0: positive (I_sp·g0 is a divisor), at most 100 m/s² (Jupiter ≈ 25).
+const G0: Range = Range::open_closed(0.0, 100.0, "m/s^2");
+
+// ---------------------------------------------------------------------------
+// Boundary conditions (paper Section 4, Eq. 4). A landing burn starts at most
+// a few km up and downrange, so 100 km and 10 km/s are far outside any case
+// the method is meant for, but still well-scaled numbers.
+// ---------------------------------------------------------------------------
+
+/// Downrange position x: |x| ≤ 1e5 m.
+const POS_X: Range = Range::closed(-1e5, 1e5, "m");
+/// Altitude z: the ground is z = 0, so 0 ≤ z ≤ 1e5 m (the Kármán line).
+const POS_Z: Range = Range::closed(0.0, 1e5, "m");
+/// Velocity components: |v| ≤ 1e4 m/s, above orbital speed.
+const SPEED: Range = Range::closed(-1e4, 1e4, "m/s");
+/// Pitch θ from the vertical: one full turn, −180° to 180°.
+const THETA: Range = Range::closed(-180.0, 180.0, "deg");
+/// Pitch rate ω: |ω| ≤ 360 deg/s, one turn per second.
+const PITCH_RATE: Range = Range::closed(-360.0, 360.0, "deg/s");
+/// Initial gimbal δ(t0): strictly within ±90° (then also within ±δ_max,
+/// checked as a consistency condition).
+const GIMBAL: Range = Range::open(-90.0, 90.0, "deg");
+
+// ---------------------------------------------------------------------------
+// Discretization (paper Section 3.2).
+// ---------------------------------------------------------------------------
+
+/// LGR collocation points N: at least 4 so the polynomial can represent the
+/// flip (the paper uses 20), at most 100, beyond which the dense
+/// differentiation matrix is ill-conditioned and the subproblem is large.
+const NODES: (usize, usize) = (4, 100);
+/// Final-time guess t_f: positive, at most 1000 s (a landing burn lasts tens
+/// of seconds; the paper's is about 12 s).
+const TF_GUESS: Range = Range::open_closed(0.0, 1000.0, "s");
+
+// ---------------------------------------------------------------------------
+// SCvx settings (paper Section 3.4; trust-region rule of Mao, Szmuk and
+// Açıkmeşe 2016).
+// ---------------------------------------------------------------------------
+
+/// Iteration limit: at least one iteration, at most 10000.
+const MAX_ITERATIONS: (usize, usize) = (1, 10_000);
+/// Convergence tolerances on scaled quantities, and the accepted relaxation
+/// gap 1 − ‖T‖/σ: strictly between 0 (never reached in floating point) and 1
+/// (no accuracy at all).
+const TOLERANCE: Range = Range::open(0.0, 1.0, "");
+/// Exact-penalty weight λ: positive (Mao et al. need λ large enough), at most
+/// 1e12, past which the subproblem cost is dominated by round-off.
+const WEIGHT: Range = Range::open_closed(0.0, 1e12, "");
+/// Proximal weight on the scaled step: zero (off) up to 1e6.
+const PROXIMAL_WEIGHT: Range = Range::closed(0.0, 1e6, "");
+/// Trust-region radii on the scaled variables (O(1)): positive, at most 1e6.
+const TRUST_RADIUS: Range = Range::open_closed(0.0, 1e6, "");
+/// Acceptance-ratio thresholds ρ0 < ρ1 < ρ2: Mao et al. require them in
+/// [0, 1) (ρ0 = 0 is the common choice); their order is checked separately.
+const RHO: Range = Range::closed_open(0.0, 1.0, "");
+/// Trust-region shrink and grow factors: strictly above 1 (else the radius
+/// does not change), at most 100.
+const FACTOR: Range = Range::open_closed(1.0, 100.0, "");
+
+/// Check every field of a scenario against its allowed range, then check that
+/// related fields agree with each other.
+pub fn scenario(s: &Scenario) -> Result<(), InputError> {
+    name(&s.name)?;
+    vehicle(&s.vehicle)?;
+    environment(&s.environment)?;
+    initial(&s.initial)?;
+    terminal(&s.terminal)?;
+    discretization(&s.discretization)?;
+    solver(&s.solver)?;
+    consistency(s)
+}
+
+/// The name labels outputs, so it must contain a non-blank character. The
+/// reported value is the length of the trimmed name.
+fn name(name: &str) -> Result<(), InputError> {
+    let trimmed = name.trim();
+    if trimmed.is_empty() {
+        return Err(InputError::OutOfRange {
+            field: "name".into(),
+            value: trimmed.chars().count() as f64,
+            allowed: "a non-empty string (at least 1 non-blank character)".into(),
+        });
+    }
     Ok(())
+}
+
+/// Vehicle ranges: see [`MASS`], [`LENGTH`], [`MAX_THRUST`], [`MIN_THRUST`],
+/// [`ISP`], [`MAX_GIMBAL`], [`GIMBAL_RATE`], [`DRAG`].
+fn vehicle(v: &Vehicle) -> Result<(), InputError> {
+    check_all(&[
+        ("vehicle.dry_mass_kg", v.dry_mass_kg, MASS),
+        ("vehicle.length_m", v.length_m, LENGTH),
+        ("vehicle.radius_m", v.radius_m, LENGTH),
+        ("vehicle.cg_m", v.cg_m, LENGTH),
+        ("vehicle.cp_m", v.cp_m, LENGTH),
+        ("vehicle.max_thrust_n", v.max_thrust_n, MAX_THRUST),
+        ("vehicle.min_thrust_n", v.min_thrust_n, MIN_THRUST),
+        ("vehicle.isp_s", v.isp_s, ISP),
+        ("vehicle.max_gimbal_deg", v.max_gimbal_deg, MAX_GIMBAL),
+        (
+            "vehicle.max_gimbal_rate_degps",
+            v.max_gimbal_rate_degps,
+            GIMBAL_RATE,
+        ),
+        (
+            "vehicle.drag_coefficient_kgpm",
+            v.drag_coefficient_kgpm,
+            DRAG,
+        ),
+    ])
+}
+
+/// Environment ranges: see [`G0`].
+fn environment(e: &Environment) -> Result<(), InputError> {
+    check_all(&[("environment.g0_mps2", e.g0_mps2, G0)])
+}
+
+/// Initial-state ranges: see [`POS_X`], [`POS_Z`], [`SPEED`], [`THETA`],
+/// [`PITCH_RATE`], [`MASS`], [`GIMBAL`].
+fn initial(i: &InitialState) -> Result<(), InputError> {
+    check_all(&[
+        ("initial.x_m", i.x_m, POS_X),
+        ("initial.z_m", i.z_m, POS_Z),
+        ("initial.vx_mps", i.vx_mps, SPEED),
+        ("initial.vz_mps", i.vz_mps, SPEED),
+        ("initial.theta_deg", i.theta_deg, THETA),
+        ("initial.pitch_rate_degps", i.pitch_rate_degps, PITCH_RATE),
+        ("initial.mass_kg", i.mass_kg, MASS),
+        ("initial.gimbal_deg", i.gimbal_deg, GIMBAL),
+    ])
+}
+
+/// Terminal-state ranges: the same as the initial state's (touchdown at
+/// z ≥ 0 is covered by [`POS_Z`]).
+fn terminal(t: &TerminalState) -> Result<(), InputError> {
+    check_all(&[
+        ("terminal.x_m", t.x_m, POS_X),
+        ("terminal.z_m", t.z_m, POS_Z),
+        ("terminal.vx_mps", t.vx_mps, SPEED),
+        ("terminal.vz_mps", t.vz_mps, SPEED),
+        ("terminal.theta_deg", t.theta_deg, THETA),
+        ("terminal.pitch_rate_degps", t.pitch_rate_degps, PITCH_RATE),
+    ])
+}
+
+/// Discretization ranges: see [`NODES`], [`TF_GUESS`], [`MASS`].
+fn discretization(d: &Discretization) -> Result<(), InputError> {
+    count_in_range("discretization.nodes", d.nodes, NODES)?;
+    check_all(&[
+        ("discretization.tf_guess_s", d.tf_guess_s, TF_GUESS),
+        (
+            "discretization.final_mass_guess_kg",
+            d.final_mass_guess_kg,
+            MASS,
+        ),
+    ])
+}
+
+/// Solver ranges: see [`MAX_ITERATIONS`], [`TOLERANCE`], [`WEIGHT`],
+/// [`TRUST_RADIUS`], [`RHO`], [`FACTOR`].
+fn solver(s: &SolverSettings) -> Result<(), InputError> {
+    count_in_range("solver.max_iterations", s.max_iterations, MAX_ITERATIONS)?;
+    check_all(&[
+        ("solver.step_tolerance", s.step_tolerance, TOLERANCE),
+        ("solver.defect_tolerance", s.defect_tolerance, TOLERANCE),
+        (
+            "solver.virtual_control_tolerance",
+            s.virtual_control_tolerance,
+            TOLERANCE,
+        ),
+        (
+            "solver.virtual_control_weight",
+            s.virtual_control_weight,
+            WEIGHT,
+        ),
+        ("solver.proximal_weight", s.proximal_weight, PROXIMAL_WEIGHT),
+        (
+            "solver.trust_region_initial",
+            s.trust_region_initial,
+            TRUST_RADIUS,
+        ),
+        ("solver.trust_region_min", s.trust_region_min, TRUST_RADIUS),
+        ("solver.trust_region_max", s.trust_region_max, TRUST_RADIUS),
+        ("solver.rho0", s.rho0, RHO),
+        ("solver.rho1", s.rho1, RHO),
+        ("solver.rho2", s.rho2, RHO),
+        ("solver.shrink", s.shrink, FACTOR),
+        ("solver.grow", s.grow, FACTOR),
+        (
+            "solver.relaxation_gap_tolerance",
+            s.relaxation_gap_tolerance,
+            TOLERANCE,
+        ),
+    ])
+}
+
+/// Cross-field conditions. All values are finite here (the range pass ran
+/// first). Sources:
+/// - T_min ≤ T_max: the throttle interval of Eq. 5 must not be empty;
+/// - m_dry < m0: Eq. 4 requires the final mass above m_dry, and the vehicle
+///   must carry some propellant; the final-mass guess lies in [m_dry, m0];
+/// - l_cg, l_cp ≤ l_s: both stations are measured along the body from the
+///   gimbal, so they lie on the body;
+/// - |δ(t0)| ≤ δ_max: the initial state must satisfy the gimbal bound;
+/// - z(t0) > z(t_f): the burn starts above the landing point;
+/// - ρ0 < ρ1 < ρ2 and r_min ≤ r_initial ≤ r_max: the trust-region update rule
+///   of Mao, Szmuk and Açıkmeşe (2016).
+fn consistency(s: &Scenario) -> Result<(), InputError> {
+    let v = &s.vehicle;
+    let i = &s.initial;
+    let t = &s.terminal;
+    let d = &s.discretization;
+    let sv = &s.solver;
+
+    let checks: [(bool, &str, f64, String); 11] = [
+        (
+            v.min_thrust_n <= v.max_thrust_n,
+            "vehicle.min_thrust_n",
+            v.min_thrust_n,
+            format!(
+                "must not exceed vehicle.max_thrust_n = {} N",
+                v.max_thrust_n
+            ),
+        ),
+        (
+            v.dry_mass_kg < i.mass_kg,
+            "vehicle.dry_mass_kg",
+            v.dry_mass_kg,
+            format!(
+                "dry mass {} kg must be below initial.mass_kg = {} kg (no propellant left)",
+                v.dry_mass_kg, i.mass_kg
+            ),
+        ),
+        (
+            v.dry_mass_kg <= d.final_mass_guess_kg && d.final_mass_guess_kg <= i.mass_kg,
+            "discretization.final_mass_guess_kg",
+            d.final_mass_guess_kg,
+            format!(
+                "must lie in [vehicle.dry_mass_kg, initial.mass_kg] = [{}, {}] kg",
+                v.dry_mass_kg, i.mass_kg
+            ),
+        ),
+        (
+            v.cg_m <= v.length_m,
+            "vehicle.cg_m",
+            v.cg_m,
+            format!(
+                "centre of mass lies beyond the body: vehicle.length_m = {} m",
+                v.length_m
+            ),
+        ),
+        (
+            v.cp_m <= v.length_m,
+            "vehicle.cp_m",
+            v.cp_m,
+            format!(
+                "centre of pressure lies beyond the body: vehicle.length_m = {} m",
+                v.length_m
+            ),
+        ),
+        (
+            i.gimbal_deg.abs() <= v.max_gimbal_deg,
+            "initial.gimbal_deg",
+            i.gimbal_deg,
+            format!(
+                "|gimbal| must not exceed vehicle.max_gimbal_deg = {} deg",
+                v.max_gimbal_deg
+            ),
+        ),
+        (
+            i.z_m > t.z_m,
+            "initial.z_m",
+            i.z_m,
+            format!(
+                "must be above terminal.z_m = {} m (the burn starts above the landing point)",
+                t.z_m
+            ),
+        ),
+        (
+            sv.rho0 < sv.rho1,
+            "solver.rho1",
+            sv.rho1,
+            format!("must be greater than solver.rho0 = {}", sv.rho0),
+        ),
+        (
+            sv.rho1 < sv.rho2,
+            "solver.rho2",
+            sv.rho2,
+            format!("must be greater than solver.rho1 = {}", sv.rho1),
+        ),
+        (
+            sv.trust_region_min <= sv.trust_region_initial,
+            "solver.trust_region_initial",
+            sv.trust_region_initial,
+            format!(
+                "must be at least solver.trust_region_min = {}",
+                sv.trust_region_min
+            ),
+        ),
+        (
+            sv.trust_region_initial <= sv.trust_region_max,
+            "solver.trust_region_initial",
+            sv.trust_region_initial,
+            format!(
+                "must be at most solver.trust_region_max = {}",
+                sv.trust_region_max
+            ),
+        ),
+    ];
+    match checks.into_iter().find(|(ok, ..)| !ok) {
+        Some((_, field, value, reason)) => Err(InputError::Inconsistent {
+            field: field.into(),
+            value,
+            reason,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Check a table of (field, value, range) rows in order; the first failure wins.
+fn check_all(rows: &[(&str, f64, Range)]) -> Result<(), InputError> {
+    rows.iter()
+        .try_for_each(|(field, value, range)| range.check(field, *value))
+}
+
+/// Check that a finite `value` lies between `lo` and `hi`, each end open or
+/// closed. NaN and ±inf are always out of range.
+fn in_range(
+    field: &str,
+    value: f64,
+    lo: f64,
+    hi: f64,
+    lo_open: bool,
+    hi_open: bool,
+    unit: &str,
+) -> Result<(), InputError> {
+    let above_lo = if lo_open { value > lo } else { value >= lo };
+    let below_hi = if hi_open { value < hi } else { value <= hi };
+    if value.is_finite() && above_lo && below_hi {
+        return Ok(());
+    }
+    let mut allowed = format!(
+        "{}{}, {}{}",
+        if lo_open { '(' } else { '[' },
+        fmt_bound(lo),
+        fmt_bound(hi),
+        if hi_open { ')' } else { ']' },
+    );
+    if !unit.is_empty() {
+        allowed.push(' ');
+        allowed.push_str(unit);
+    }
+    Err(InputError::OutOfRange {
+        field: field.into(),
+        value,
+        allowed,
+    })
+}
+
+/// Check an integer count against an inclusive range.
+fn count_in_range(field: &str, value: usize, (lo, hi): (usize, usize)) -> Result<(), InputError> {
+    if (lo..=hi).contains(&value) {
+        return Ok(());
+    }
+    Err(InputError::OutOfRange {
+        field: field.into(),
+        value: value as f64,
+        allowed: format!("{lo} to {hi}"),
+    })
+}
+
+/// Print a range bound readably: `1e7` rather than `10000000`, `100` as is.
+fn fmt_bound(x: f64) -> String {
+    if x != 0.0 && (x.abs() >= 1e4 || x.abs() < 1e-3) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_print_readably() {
+        assert_eq!(fmt_bound(1e7), "1e7");
+        assert_eq!(fmt_bound(-1e5), "-1e5");
+        assert_eq!(fmt_bound(1000.0), "1000");
+        assert_eq!(fmt_bound(0.0), "0");
+        assert_eq!(fmt_bound(1.0), "1");
+    }
+
+    #[test]
+    fn in_range_respects_open_and_closed_ends() {
+        assert!(in_range("f", 0.0, 0.0, 1.0, false, false, "m").is_ok());
+        assert!(in_range("f", 0.0, 0.0, 1.0, true, false, "m").is_err());
+        assert!(in_range("f", 1.0, 0.0, 1.0, false, false, "m").is_ok());
+        assert!(in_range("f", 1.0, 0.0, 1.0, false, true, "m").is_err());
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            assert!(in_range("f", bad, f64::MIN, f64::MAX, false, false, "").is_err());
+        }
+        let err = in_range("vehicle.dry_mass_kg", -1.0, 0.0, 1e7, true, false, "kg").unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "vehicle.dry_mass_kg = -1 is out of range: allowed (0, 1e7] kg"
+        );
+    }
 }

@@ -1,0 +1,448 @@
+//! Scenario input: parsing, validation and the error messages for bad input.
+
+use bellyflop::scenario::PAPER_TOML;
+use bellyflop::{Formulation, InputError, Scenario};
+
+/// PAPER_TOML with `from` (which must occur exactly once) replaced by `to`.
+fn paper_with(from: &str, to: &str) -> String {
+    assert_eq!(
+        PAPER_TOML.matches(from).count(),
+        1,
+        "`{from}` must occur exactly once in paper.toml"
+    );
+    PAPER_TOML.replacen(from, to, 1)
+}
+
+/// 1-based line number of the first line of `text` that starts with `prefix`.
+fn line_of(text: &str, prefix: &str) -> usize {
+    text.lines()
+        .position(|l| l.trim_start().starts_with(prefix))
+        .unwrap_or_else(|| panic!("no line starts with `{prefix}`"))
+        + 1
+}
+
+/// Parse `text`, expecting an out-of-range error; return (field, value, allowed, display).
+fn out_of_range(text: &str) -> (String, f64, String, String) {
+    match Scenario::from_toml_str(text) {
+        Err(e @ InputError::OutOfRange { .. }) => {
+            let display = e.to_string();
+            let InputError::OutOfRange {
+                field,
+                value,
+                allowed,
+            } = e
+            else {
+                unreachable!()
+            };
+            (field, value, allowed, display)
+        }
+        other => panic!("expected OutOfRange, got {other:?}"),
+    }
+}
+
+/// Parse `text`, expecting an inconsistency error; return (field, value, reason, display).
+fn inconsistent(text: &str) -> (String, f64, String, String) {
+    match Scenario::from_toml_str(text) {
+        Err(e @ InputError::Inconsistent { .. }) => {
+            let display = e.to_string();
+            let InputError::Inconsistent {
+                field,
+                value,
+                reason,
+            } = e
+            else {
+                unreachable!()
+            };
+            (field, value, reason, display)
+        }
+        other => panic!("expected Inconsistent, got {other:?}"),
+    }
+}
+
+/// Parse `text`, expecting a TOML error; return (line, column, message, display).
+fn toml_error(text: &str) -> (usize, usize, String, String) {
+    match Scenario::from_toml_str(text) {
+        Err(e @ InputError::Toml { .. }) => {
+            let display = e.to_string();
+            let InputError::Toml {
+                line,
+                column,
+                message,
+            } = e
+            else {
+                unreachable!()
+            };
+            (line, column, message, display)
+        }
+        other => panic!("expected Toml, got {other:?}"),
+    }
+}
+
+#[test]
+fn paper_scenario_parses_and_validates_with_table_1_values() {
+    let s = Scenario::from_toml_str(PAPER_TOML).expect("paper.toml is valid");
+    assert_eq!(s, Scenario::paper());
+    assert!(s.validate().is_ok());
+    assert_eq!(s.name, "paper");
+
+    // Table 1.
+    let v = &s.vehicle;
+    assert_eq!(v.dry_mass_kg, 85_000.0);
+    assert_eq!(v.length_m, 50.0);
+    assert_eq!(v.radius_m, 4.5);
+    assert_eq!(v.cg_m, 20.0);
+    assert_eq!(v.cp_m, 22.5);
+    assert_eq!(v.max_thrust_n, 2.21e6);
+    assert_eq!(v.min_thrust_n, 8.8e5);
+    assert_eq!(v.isp_s, 330.0);
+    assert_eq!(v.max_gimbal_deg, 20.0);
+    assert_eq!(v.max_gimbal_rate_degps, 20.0);
+    assert_eq!(v.drag_coefficient_kgpm, 195.52);
+    assert_eq!(s.environment.g0_mps2, 9.81);
+
+    // Section 4 boundary conditions.
+    let i = &s.initial;
+    assert_eq!(
+        (i.x_m, i.z_m, i.vx_mps, i.vz_mps),
+        (100.0, 600.0, 0.0, -85.0)
+    );
+    assert_eq!((i.theta_deg, i.pitch_rate_degps), (90.0, 0.0));
+    assert_eq!((i.mass_kg, i.gimbal_deg), (120_000.0, 0.0));
+    let t = &s.terminal;
+    assert_eq!(
+        (
+            t.x_m,
+            t.z_m,
+            t.vx_mps,
+            t.vz_mps,
+            t.theta_deg,
+            t.pitch_rate_degps
+        ),
+        (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    );
+
+    assert_eq!(s.discretization.nodes, 20);
+    assert_eq!(s.solver.formulation, Formulation::Exact);
+    assert_eq!(s.solver.max_iterations, 60);
+}
+
+#[test]
+fn default_solver_settings_validate() {
+    // The [solver] table is optional; its defaults must pass validation.
+    let start = PAPER_TOML.find("[solver]").unwrap();
+    let without_solver = &PAPER_TOML[..start];
+    let s = Scenario::from_toml_str(without_solver).expect("defaults are valid");
+    assert_eq!(s.solver, bellyflop::scenario::SolverSettings::default());
+}
+
+#[test]
+fn toml_syntax_error_reports_its_line() {
+    // A hand-built text: the unclosed table header is on line 4.
+    let text = "name = \"x\"\n\n# comment\n[vehicle\ndry_mass_kg = 1.0\n";
+    let (line, _, _, display) = toml_error(text);
+    assert_eq!(line, 4);
+    assert!(display.contains("line 4"), "{display}");
+
+    // A broken value inside the paper scenario.
+    let text = paper_with("isp_s = 330.0", "isp_s = = 330.0");
+    let expected = line_of(&text, "isp_s");
+    let (line, column, _, display) = toml_error(&text);
+    assert_eq!(line, expected);
+    assert!(column >= 1);
+    assert!(display.contains(&format!("line {expected}")), "{display}");
+}
+
+#[test]
+fn unknown_field_is_rejected_by_name() {
+    let text = paper_with("isp_s = 330.0", "isp_s = 330.0\nturbo_boost = 1.0");
+    let expected = line_of(&text, "turbo_boost");
+    let (line, _, message, display) = toml_error(&text);
+    assert!(message.contains("turbo_boost"), "{message}");
+    assert!(display.contains("turbo_boost"), "{display}");
+    assert_eq!(line, expected);
+
+    // An unknown top-level table too.
+    let text = format!("{PAPER_TOML}\n[extras]\nx = 1\n");
+    let (_, _, message, _) = toml_error(&text);
+    assert!(message.contains("extras"), "{message}");
+}
+
+#[test]
+fn wrong_type_is_rejected_with_its_line() {
+    let text = paper_with("nodes = 20 ", "nodes = \"twenty\" ");
+    let expected = line_of(&text, "nodes");
+    let (line, _, _, display) = toml_error(&text);
+    assert_eq!(line, expected);
+    assert!(display.contains(&format!("line {expected}")), "{display}");
+
+    let text = paper_with("mass_kg = 120000.0", "mass_kg = true");
+    let expected = line_of(&text, "mass_kg");
+    let (line, _, _, _) = toml_error(&text);
+    assert_eq!(line, expected);
+
+    let text = paper_with("formulation = \"exact\"", "formulation = \"fancy\"");
+    let expected = line_of(&text, "formulation");
+    let (line, _, message, _) = toml_error(&text);
+    assert_eq!(line, expected);
+    assert!(message.contains("fancy"), "{message}");
+}
+
+#[test]
+fn negative_mass_is_out_of_range() {
+    let (field, value, allowed, display) = out_of_range(&paper_with(
+        "dry_mass_kg = 85000.0",
+        "dry_mass_kg = -85000.0",
+    ));
+    assert_eq!(field, "vehicle.dry_mass_kg");
+    assert_eq!(value, -85_000.0);
+    assert_eq!(allowed, "(0, 1e7] kg");
+    assert_eq!(
+        display,
+        "vehicle.dry_mass_kg = -85000 is out of range: allowed (0, 1e7] kg"
+    );
+
+    let (field, value, _, display) =
+        out_of_range(&paper_with("mass_kg = 120000.0", "mass_kg = -1.0"));
+    assert_eq!(field, "initial.mass_kg");
+    assert_eq!(value, -1.0);
+    assert!(display.contains("initial.mass_kg = -1"), "{display}");
+}
+
+#[test]
+fn min_thrust_above_max_thrust_is_inconsistent() {
+    let (field, value, reason, display) = inconsistent(&paper_with(
+        "min_thrust_n = 880000.0",
+        "min_thrust_n = 3000000.0",
+    ));
+    assert_eq!(field, "vehicle.min_thrust_n");
+    assert_eq!(value, 3.0e6);
+    assert!(reason.contains("vehicle.max_thrust_n"), "{reason}");
+    assert!(
+        display.contains("vehicle.min_thrust_n = 3000000"),
+        "{display}"
+    );
+    assert!(display.contains("2210000"), "{display}");
+}
+
+#[test]
+fn node_count_outside_4_to_100_is_out_of_range() {
+    for (n, ok) in [(0, false), (3, false), (4, true), (100, true), (101, false)] {
+        let text = paper_with("nodes = 20 ", &format!("nodes = {n} "));
+        if ok {
+            assert!(Scenario::from_toml_str(&text).is_ok(), "N = {n}");
+            continue;
+        }
+        let (field, value, allowed, display) = out_of_range(&text);
+        assert_eq!(field, "discretization.nodes");
+        assert_eq!(value, n as f64);
+        assert_eq!(allowed, "4 to 100");
+        assert_eq!(
+            display,
+            format!("discretization.nodes = {n} is out of range: allowed 4 to 100")
+        );
+    }
+    // A negative count is not a usize: a TOML error at the right line.
+    let text = paper_with("nodes = 20 ", "nodes = -5 ");
+    let (line, _, _, _) = toml_error(&text);
+    assert_eq!(line, line_of(&text, "nodes"));
+}
+
+#[test]
+fn nan_is_out_of_range() {
+    let (field, value, allowed, display) =
+        out_of_range(&paper_with("isp_s = 330.0", "isp_s = nan"));
+    assert_eq!(field, "vehicle.isp_s");
+    assert!(value.is_nan());
+    assert_eq!(allowed, "(0, 1000] s");
+    assert_eq!(
+        display,
+        "vehicle.isp_s = NaN is out of range: allowed (0, 1000] s"
+    );
+}
+
+#[test]
+fn infinity_is_out_of_range() {
+    let (field, value, allowed, display) = out_of_range(&paper_with(
+        "max_thrust_n = 2210000.0",
+        "max_thrust_n = inf",
+    ));
+    assert_eq!(field, "vehicle.max_thrust_n");
+    assert_eq!(value, f64::INFINITY);
+    assert_eq!(allowed, "(0, 1e9] N");
+    assert!(display.contains("vehicle.max_thrust_n = inf"), "{display}");
+    assert!(display.contains("(0, 1e9] N"), "{display}");
+
+    // -inf in a field whose range is symmetric.
+    let (field, value, allowed, _) = out_of_range(&paper_with("vz_mps = -85.0", "vz_mps = -inf"));
+    assert_eq!(field, "initial.vz_mps");
+    assert_eq!(value, f64::NEG_INFINITY);
+    assert_eq!(allowed, "[-1e4, 1e4] m/s");
+}
+
+#[test]
+fn dry_mass_above_initial_mass_is_inconsistent() {
+    let (field, value, reason, display) = inconsistent(&paper_with(
+        "dry_mass_kg = 85000.0",
+        "dry_mass_kg = 130000.0",
+    ));
+    assert_eq!(field, "vehicle.dry_mass_kg");
+    assert_eq!(value, 130_000.0);
+    assert!(
+        reason.contains("130000") && reason.contains("120000"),
+        "{reason}"
+    );
+    assert!(
+        display.contains("vehicle.dry_mass_kg = 130000"),
+        "{display}"
+    );
+    assert!(display.contains("initial.mass_kg"), "{display}");
+
+    // Equal masses leave no propellant: also rejected.
+    let (field, _, _, _) = inconsistent(&paper_with(
+        "dry_mass_kg = 85000.0",
+        "dry_mass_kg = 120000.0",
+    ));
+    assert_eq!(field, "vehicle.dry_mass_kg");
+}
+
+#[test]
+fn zero_isp_is_out_of_range() {
+    let (field, value, allowed, display) =
+        out_of_range(&paper_with("isp_s = 330.0", "isp_s = 0.0"));
+    assert_eq!(field, "vehicle.isp_s");
+    assert_eq!(value, 0.0);
+    assert_eq!(allowed, "(0, 1000] s");
+    assert_eq!(
+        display,
+        "vehicle.isp_s = 0 is out of range: allowed (0, 1000] s"
+    );
+}
+
+#[test]
+fn other_contradictions_are_inconsistent() {
+    let cases: [(&str, &str, &str); 7] = [
+        ("cg_m = 20.0", "cg_m = 60.0", "vehicle.cg_m"),
+        ("cp_m = 22.5", "cp_m = 51.0", "vehicle.cp_m"),
+        (
+            "final_mass_guess_kg = 110000.0",
+            "final_mass_guess_kg = 80000.0",
+            "discretization.final_mass_guess_kg",
+        ),
+        (
+            "final_mass_guess_kg = 110000.0",
+            "final_mass_guess_kg = 125000.0",
+            "discretization.final_mass_guess_kg",
+        ),
+        (
+            "gimbal_deg = 0.0",
+            "gimbal_deg = -25.0",
+            "initial.gimbal_deg",
+        ),
+        ("z_m = 600.0", "z_m = 0.0", "initial.z_m"),
+        (
+            "max_iterations = 60",
+            "max_iterations = 60\nrho0 = 0.3",
+            "solver.rho1",
+        ),
+    ];
+    for (from, to, expected) in cases {
+        let (field, _, reason, display) = inconsistent(&paper_with(from, to));
+        assert_eq!(field, expected, "{to}: {display}");
+        assert!(display.starts_with(expected), "{display}");
+        assert!(!reason.is_empty());
+    }
+
+    let solver_cases: [(&str, &str); 3] = [
+        ("rho2 = 0.05", "solver.rho2"),
+        ("trust_region_min = 2.0", "solver.trust_region_initial"),
+        ("trust_region_max = 0.2", "solver.trust_region_initial"),
+    ];
+    for (extra, expected) in solver_cases {
+        let text = format!("{PAPER_TOML}{extra}\n");
+        let (field, _, _, display) = inconsistent(&text);
+        assert_eq!(field, expected, "{extra}: {display}");
+    }
+}
+
+#[test]
+fn terminal_altitude_below_ground_is_out_of_range() {
+    let text = PAPER_TOML.replacen("z_m = 0.0", "z_m = -1.0", 1);
+    let (field, value, allowed, _) = out_of_range(&text);
+    assert_eq!(field, "terminal.z_m");
+    assert_eq!(value, -1.0);
+    assert_eq!(allowed, "[0, 1e5] m");
+}
+
+#[test]
+fn empty_name_is_rejected() {
+    let (field, _, _, display) = out_of_range(&paper_with("name = \"paper\"", "name = \"  \""));
+    assert_eq!(field, "name");
+    assert!(display.contains("non-empty"), "{display}");
+}
+
+/// Every numeric field in paper.toml, plus every solver setting, given
+/// each of a set of bad values: the error is an `OutOfRange` naming that
+/// field (never a panic).
+#[test]
+fn every_numeric_field_rejects_non_finite_and_absurd_values() {
+    // Collect (section, key, line index) for each `key = number` line.
+    let lines: Vec<&str> = PAPER_TOML.lines().collect();
+    let mut section = String::new();
+    let mut fields = Vec::new();
+    for (idx, line) in lines.iter().enumerate() {
+        let code = line.split('#').next().unwrap().trim();
+        if let Some(name) = code.strip_prefix('[').and_then(|c| c.strip_suffix(']')) {
+            section = name.to_string();
+        } else if let Some((key, value)) = code.split_once('=') {
+            if value.trim().parse::<f64>().is_ok() {
+                fields.push((section.clone(), key.trim().to_string(), Some(idx)));
+            }
+        }
+    }
+    for key in [
+        "step_tolerance",
+        "virtual_control_tolerance",
+        "virtual_control_weight",
+        "trust_region_initial",
+        "trust_region_min",
+        "trust_region_max",
+        "rho0",
+        "rho1",
+        "rho2",
+        "shrink",
+        "grow",
+        "relaxation_gap_tolerance",
+    ] {
+        fields.push(("solver".to_string(), key.to_string(), None));
+    }
+    assert!(fields.len() > 40, "found only {} fields", fields.len());
+
+    for (section, key, idx) in &fields {
+        let dotted = format!("{section}.{key}");
+        let is_count = key == "nodes" || key == "max_iterations";
+        let bad: &[&str] = if is_count {
+            &["0", "1000000"]
+        } else {
+            &["nan", "inf", "-inf", "1e300", "-1e300"]
+        };
+        for value in bad {
+            let text = match idx {
+                Some(i) => {
+                    let mut l = lines.clone();
+                    let new = format!("{key} = {value}");
+                    l[*i] = &new;
+                    l.join("\n")
+                }
+                None => format!("{PAPER_TOML}{key} = {value}\n"),
+            };
+            let result = std::panic::catch_unwind(|| Scenario::from_toml_str(&text));
+            let result = result.unwrap_or_else(|_| panic!("{dotted} = {value} panicked"));
+            match result {
+                Err(InputError::OutOfRange { field, .. }) => {
+                    assert_eq!(field, dotted, "{dotted} = {value}")
+                }
+                other => panic!("{dotted} = {value}: expected OutOfRange, got {other:?}"),
+            }
+        }
+    }
+}
