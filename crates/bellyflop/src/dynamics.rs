@@ -1,0 +1,338 @@
+//! Equations of motion and their exact Jacobians.
+//!
+//! Three forms of the same planar model (paper Section 2–3.1):
+//! - [`rhs_physical`]: Eq. (1)–(3), state (x, z, Vx, Vz, θ, w, m), control (T, δ) — problem P1;
+//! - [`rhs_augmented`]: Eq. (8), state adds δ, control (T, χ) — problem P2;
+//! - [`rhs_lcvx`]: Eq. (21)–(22), state (x, z, Vx, Vz, θ, w, ω = ln m, δ) with the
+//!   controls of a [`Formulation`]: (Txm, Tzm, σ, χ) for the paper's P3, or (σ, χ)
+//!   for the exact form, where the thrust direction θ + δ stays in the dynamics.
+//!
+//! All are generic over [`DualNum`], so one code path gives values (f64) and exact
+//! forward-mode Jacobians ([`linearize`]).
+
+use num_dual::{DualNum, DualSVec64};
+
+use crate::scenario::{Environment, Formulation, Vehicle};
+
+/// Number of LCvx states: x, z, Vx, Vz, θ, w, ω, δ.
+pub const NX: usize = 8;
+/// Largest control dimension (the paper's formulation).
+pub const NU_MAX: usize = 4;
+
+/// State indices of the LCvx state vector.
+pub mod ix {
+    pub const X: usize = 0;
+    pub const Z: usize = 1;
+    pub const VX: usize = 2;
+    pub const VZ: usize = 3;
+    pub const THETA: usize = 4;
+    pub const W: usize = 5;
+    pub const OMEGA: usize = 6;
+    pub const DELTA: usize = 7;
+}
+
+/// Smoothing speed in ‖V‖ = sqrt(Vx² + Vz² + ε²) [m/s]. It keeps the derivative
+/// of the drag finite at V = 0; the drag changes by a relative 1e-12 at 1 m/s.
+const SPEED_EPS_MPS: f64 = 1e-6;
+
+/// Constants of the model, derived once from the vehicle (SI units, radians).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Model {
+    pub g0_mps2: f64,
+    /// α = −1/(I_sp·g0) [s/m] (Eq. 16).
+    pub alpha_spm: f64,
+    pub c_ld_kgpm: f64,
+    /// L_T = −12·l_cg/(6r² + l²) [1/m] (Eq. 22).
+    pub l_t_pm: f64,
+    /// L_D = −12·(l_cp − l_cg)/(6r² + l²) [1/m] (Eq. 22).
+    pub l_d_pm: f64,
+    /// J/m = (6r² + l²)/12 [m²] (Eq. 3).
+    pub inertia_per_mass_m2: f64,
+    pub cg_m: f64,
+    pub cp_m: f64,
+    pub min_thrust_n: f64,
+    pub max_thrust_n: f64,
+    pub max_gimbal_rad: f64,
+    pub max_gimbal_rate_radps: f64,
+    pub dry_mass_kg: f64,
+}
+
+impl Model {
+    pub fn new(v: &Vehicle, env: &Environment) -> Self {
+        let k = 6.0 * v.radius_m * v.radius_m + v.length_m * v.length_m;
+        Model {
+            g0_mps2: env.g0_mps2,
+            alpha_spm: -1.0 / (v.isp_s * env.g0_mps2),
+            c_ld_kgpm: v.drag_coefficient_kgpm,
+            l_t_pm: -12.0 * v.cg_m / k,
+            l_d_pm: -12.0 * (v.cp_m - v.cg_m) / k,
+            inertia_per_mass_m2: k / 12.0,
+            cg_m: v.cg_m,
+            cp_m: v.cp_m,
+            min_thrust_n: v.min_thrust_n,
+            max_thrust_n: v.max_thrust_n,
+            max_gimbal_rad: v.max_gimbal_deg.to_radians(),
+            max_gimbal_rate_radps: v.max_gimbal_rate_degps.to_radians(),
+            dry_mass_kg: v.dry_mass_kg,
+        }
+    }
+
+    /// Drag force per C_LD·‖V‖ scale: (Dx, Dz) = −C_LD·‖V‖·(Vx, Vz) [N] (Eq. 2).
+    fn drag<D: DualNum<Primitive = f64> + Copy>(&self, vx: D, vz: D) -> (D, D) {
+        let speed = (vx * vx + vz * vz + SPEED_EPS_MPS * SPEED_EPS_MPS).sqrt();
+        let k = speed * (-self.c_ld_kgpm);
+        (k * vx, k * vz)
+    }
+}
+
+/// Control dimension of a formulation.
+pub fn control_dim(form: Formulation) -> usize {
+    match form {
+        Formulation::Paper => 4,
+        Formulation::Exact => 2,
+    }
+}
+
+/// Eq. (1)–(3): ẋ for state (x, z, Vx, Vz, θ, w, m) and control (T [N], δ [rad]).
+pub fn rhs_physical<D: DualNum<Primitive = f64> + Copy>(
+    model: &Model,
+    s: &[D; 7],
+    thrust_n: D,
+    delta_rad: D,
+) -> [D; 7] {
+    let [_, _, vx, vz, theta, w, m] = *s;
+    let (dx, dz) = model.drag(vx, vz);
+    let (sin_phi, cos_phi) = (theta + delta_rad).sin_cos();
+    let (sin_th, cos_th) = theta.sin_cos();
+    let inertia = m * model.inertia_per_mass_m2;
+    let moment_thrust = -(thrust_n * delta_rad.sin()) * model.cg_m;
+    let moment_drag = -(dx * cos_th + dz * sin_th) * (model.cp_m - model.cg_m);
+    [
+        vx,
+        vz,
+        (-(thrust_n * sin_phi) + dx) / m,
+        (thrust_n * cos_phi + dz) / m - model.g0_mps2,
+        w,
+        (moment_thrust + moment_drag) / inertia,
+        thrust_n * model.alpha_spm,
+    ]
+}
+
+/// Eq. (8): the nozzle-rate augmented model of P2, state (x, z, Vx, Vz, θ, w, m, δ),
+/// control (T [N], χ [rad/s]).
+pub fn rhs_augmented<D: DualNum<Primitive = f64> + Copy>(
+    model: &Model,
+    s: &[D; 8],
+    thrust_n: D,
+    chi_radps: D,
+) -> [D; 8] {
+    let p: [D; 7] = [s[0], s[1], s[2], s[3], s[4], s[5], s[6]];
+    let f = rhs_physical(model, &p, thrust_n, s[7]);
+    [f[0], f[1], f[2], f[3], f[4], f[5], f[6], chi_radps]
+}
+
+/// Eq. (21)–(22): LCvx dynamics in (x, z, Vx, Vz, θ, w, ω, δ).
+///
+/// `u` is (Txm, Tzm, σ, χ) for [`Formulation::Paper`] and (σ, χ) for
+/// [`Formulation::Exact`], where (Txm, Tzm) = σ·(sin(θ+δ), cos(θ+δ)).
+pub fn rhs_lcvx<D: DualNum<Primitive = f64> + Copy>(
+    model: &Model,
+    form: Formulation,
+    x: &[D; NX],
+    u: &[D],
+) -> [D; NX] {
+    let [_, _, vx, vz, theta, w, omega, delta] = *x;
+    let (txm, tzm, sigma, chi) = match form {
+        Formulation::Paper => (u[0], u[1], u[2], u[3]),
+        Formulation::Exact => {
+            let (sin_phi, cos_phi) = (theta + delta).sin_cos();
+            (u[0] * sin_phi, u[0] * cos_phi, u[0], u[1])
+        }
+    };
+    let inv_m = (-omega).exp();
+    let (dx, dz) = model.drag(vx, vz);
+    let (dxm, dzm) = (dx * inv_m, dz * inv_m);
+    let (sin_th, cos_th) = theta.sin_cos();
+    [
+        vx,
+        vz,
+        -txm + dxm,
+        tzm + dzm - model.g0_mps2,
+        w,
+        sigma * delta.sin() * model.l_t_pm + (dxm * cos_th + dzm * sin_th) * model.l_d_pm,
+        sigma * model.alpha_spm,
+        chi,
+    ]
+}
+
+/// Value and Jacobians of [`rhs_lcvx`] at (x, u): f, A = ∂f/∂x, B = ∂f/∂u (Eq. 26).
+///
+/// B has [`NU_MAX`] columns; only the first `control_dim(form)` are meaningful.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Linearization {
+    pub f: [f64; NX],
+    pub a: [[f64; NX]; NX],
+    pub b: [[f64; NU_MAX]; NX],
+}
+
+/// Exact Jacobians by forward-mode automatic differentiation (num-dual).
+pub fn linearize(model: &Model, form: Formulation, x: &[f64; NX], u: &[f64]) -> Linearization {
+    type D = DualSVec64<{ NX + NU_MAX }>;
+    let nu = control_dim(form);
+    let xd: [D; NX] = std::array::from_fn(|i| D::from_re(x[i]).derivative(i));
+    let ud: Vec<D> = (0..nu)
+        .map(|j| D::from_re(u[j]).derivative(NX + j))
+        .collect();
+    let out = rhs_lcvx(model, form, &xd, &ud);
+    let mut lin = Linearization {
+        f: [0.0; NX],
+        a: [[0.0; NX]; NX],
+        b: [[0.0; NU_MAX]; NX],
+    };
+    for (r, o) in out.iter().enumerate() {
+        lin.f[r] = o.re;
+        if let Some(eps) = &o.eps.0 {
+            for c in 0..NX {
+                lin.a[r][c] = eps[c];
+            }
+            for c in 0..nu {
+                lin.b[r][c] = eps[NX + c];
+            }
+        }
+    }
+    lin
+}
+
+/// Thrust-per-mass vector (Txm, Tzm) and σ of a control in either formulation.
+pub fn thrust_components(form: Formulation, x: &[f64; NX], u: &[f64]) -> (f64, f64, f64) {
+    match form {
+        Formulation::Paper => (u[0], u[1], u[2]),
+        Formulation::Exact => {
+            let phi = x[ix::THETA] + x[ix::DELTA];
+            (u[0] * phi.sin(), u[0] * phi.cos(), u[0])
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Scenario;
+
+    fn model() -> Model {
+        let s = Scenario::paper();
+        Model::new(&s.vehicle, &s.environment)
+    }
+
+    fn sample_state() -> [f64; NX] {
+        [
+            80.0,
+            450.0,
+            -3.0,
+            -70.0,
+            1.2,
+            -0.2,
+            120_000f64.ln() - 0.01,
+            0.15,
+        ]
+    }
+
+    #[test]
+    fn jacobians_match_central_differences() {
+        let m = model();
+        let x = sample_state();
+        for (form, u) in [
+            (Formulation::Paper, vec![15.0, 6.0, 16.5, 0.1]),
+            (Formulation::Exact, vec![16.5, -0.2]),
+        ] {
+            let lin = linearize(&m, form, &x, &u);
+            let f0 = rhs_lcvx(&m, form, &x, &u);
+            assert_eq!(lin.f, f0);
+            for c in 0..NX {
+                let h = 1e-6 * x[c].abs().max(1.0);
+                let (mut xp, mut xm) = (x, x);
+                xp[c] += h;
+                xm[c] -= h;
+                let (fp, fm) = (rhs_lcvx(&m, form, &xp, &u), rhs_lcvx(&m, form, &xm, &u));
+                for r in 0..NX {
+                    let fd = (fp[r] - fm[r]) / (2.0 * h);
+                    assert!(
+                        (fd - lin.a[r][c]).abs() <= 1e-6 * (1.0 + fd.abs()),
+                        "{form:?} A[{r}][{c}]: AD {} vs FD {fd}",
+                        lin.a[r][c]
+                    );
+                }
+            }
+            for c in 0..u.len() {
+                let h = 1e-6 * u[c].abs().max(1.0);
+                let (mut up, mut um) = (u.clone(), u.clone());
+                up[c] += h;
+                um[c] -= h;
+                let (fp, fm) = (rhs_lcvx(&m, form, &x, &up), rhs_lcvx(&m, form, &x, &um));
+                for r in 0..NX {
+                    let fd = (fp[r] - fm[r]) / (2.0 * h);
+                    assert!(
+                        (fd - lin.b[r][c]).abs() <= 1e-6 * (1.0 + fd.abs()),
+                        "{form:?} B[{r}][{c}]: AD {} vs FD {fd}",
+                        lin.b[r][c]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn lcvx_form_equals_physical_form() {
+        // Eq. (21) is Eq. (8) rewritten with σ = T/m, ω = ln m: same motion.
+        let m = model();
+        let x = sample_state();
+        let mass = x[ix::OMEGA].exp();
+        let thrust = 1.9e6;
+        let phys = rhs_augmented(
+            &m,
+            &[x[0], x[1], x[2], x[3], x[4], x[5], mass, x[7]],
+            thrust,
+            0.05,
+        );
+        let lcvx = rhs_lcvx(&m, Formulation::Exact, &x, &[thrust / mass, 0.05]);
+        for r in 0..6 {
+            assert!(
+                (phys[r] - lcvx[r]).abs() < 1e-10 * (1.0 + phys[r].abs()),
+                "row {r}"
+            );
+        }
+        // ω̇ = ṁ/m
+        assert!((phys[6] / mass - lcvx[6]).abs() < 1e-14);
+        assert_eq!(phys[7], lcvx[7]);
+        // The paper's controls with the same thrust vector give the same motion.
+        let phi = x[4] + x[7];
+        let s = thrust / mass;
+        let paper = rhs_lcvx(
+            &m,
+            Formulation::Paper,
+            &x,
+            &[s * phi.sin(), s * phi.cos(), s, 0.05],
+        );
+        for r in 0..NX {
+            assert!((paper[r] - lcvx[r]).abs() < 1e-12 * (1.0 + lcvx[r].abs()));
+        }
+    }
+
+    #[test]
+    fn free_fall_without_thrust_or_air() {
+        let mut v = Scenario::paper().vehicle;
+        v.drag_coefficient_kgpm = 0.0;
+        let m = Model::new(&v, &Scenario::paper().environment);
+        let f = rhs_physical(&m, &[0.0, 100.0, 3.0, -10.0, 0.3, 0.1, 1e5], 0.0, 0.0);
+        assert_eq!(f, [3.0, -10.0, 0.0, -9.81, 0.1, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn inertia_constants_follow_eq_22() {
+        let m = model();
+        // 6·4.5² + 50² = 2621.5
+        assert!((m.l_t_pm - (-12.0 * 20.0 / 2621.5)).abs() < 1e-15);
+        assert!((m.l_d_pm - (-12.0 * 2.5 / 2621.5)).abs() < 1e-15);
+        assert!((m.alpha_spm + 1.0 / (330.0 * 9.81)).abs() < 1e-18);
+    }
+}
