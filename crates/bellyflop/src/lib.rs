@@ -1,9 +1,22 @@
 //! bellyflop: fuel-optimal flip-and-land trajectories by Legendre–Gauss–Radau
 //! collocation and successive convexification (Chen, Ma, Wang, Su 2023).
+//!
+//! - [`scenario`], [`validate`]: parameters from TOML, checked before anything runs;
+//! - [`dynamics`]: the models of Eq. (1)–(3), (8), (21)–(22) and their Jacobians;
+//! - [`radau`]: LGR nodes, weights, differentiation and interpolation;
+//! - [`transcription`]: the convex subproblem P4 as conic data for Clarabel;
+//! - [`scvx`]: the successive-convexification driver loop;
+//! - [`solution`]: status, physical trajectory, checks and history.
+pub mod dynamics;
 pub mod error;
 pub mod radau;
 pub mod scenario;
+pub mod scvx;
+pub mod solution;
+pub mod transcription;
 pub mod validate;
 
 pub use error::InputError;
 pub use scenario::{Formulation, Scenario};
+pub use scvx::{solve, Observer};
+pub use solution::{Solution, Status};

@@ -107,10 +107,14 @@ pub struct SolverSettings {
     pub max_iterations: usize,
     /// Convergence: scaled step ‖Δz‖∞ below this.
     pub step_tolerance: f64,
+    /// Convergence: largest nonlinear collocation defect (scaled, Eq. 24) below this.
+    pub defect_tolerance: f64,
     /// Convergence: scaled virtual control ‖ν‖∞ below this.
     pub virtual_control_tolerance: f64,
     /// Exact-penalty weight λ on ‖ν‖₁ (scaled units).
     pub virtual_control_weight: f64,
+    /// Weight w of the proximal term w·‖Δẑ‖² that regularizes each subproblem.
+    pub proximal_weight: f64,
     /// Initial trust-region radius (scaled ∞-norm).
     pub trust_region_initial: f64,
     /// Smallest trust-region radius before the iteration stops.
@@ -132,17 +136,19 @@ impl Default for SolverSettings {
     fn default() -> Self {
         Self {
             formulation: Formulation::Exact,
-            max_iterations: 40,
-            step_tolerance: 1e-4,
+            max_iterations: 60,
+            step_tolerance: 1e-3,
+            defect_tolerance: 1e-7,
             virtual_control_tolerance: 1e-7,
             virtual_control_weight: 1e3,
-            trust_region_initial: 1.0,
+            proximal_weight: 0.0,
+            trust_region_initial: 0.3,
             trust_region_min: 1e-6,
             trust_region_max: 10.0,
             rho0: 0.0,
-            rho1: 0.25,
-            rho2: 0.7,
-            shrink: 2.0,
+            rho1: 0.1,
+            rho2: 0.9,
+            shrink: 3.0,
             grow: 2.0,
             relaxation_gap_tolerance: 1e-6,
         }

@@ -1,0 +1,322 @@
+//! Successive convexification (Section 3.4) with the trust-region update of
+//! SCvx (Mao, Szmuk, Açıkmeşe 2016): each candidate is judged by the ratio ρ of
+//! the actual to the predicted decrease of the penalized cost J, which gives
+//! global convergence where a radius that only shrinks can freeze early.
+//!
+//! This module is the one driver loop. Progress goes to an [`Observer`]; nothing
+//! here prints.
+
+use std::time::Instant;
+
+use crate::dynamics::{ix, NU_MAX, NX};
+use crate::scenario::{Formulation, Scenario, SolverSettings};
+use crate::solution::{self, IterationRecord, Solution, Status};
+use crate::transcription::{Trajectory, Transcription};
+
+/// Receives each iteration as it completes (progress bars, logs, plots).
+pub trait Observer {
+    fn on_iteration(&mut self, record: &IterationRecord);
+}
+
+/// An observer that ignores everything.
+pub struct Silent;
+
+impl Observer for Silent {
+    fn on_iteration(&mut self, _: &IterationRecord) {}
+}
+
+impl<F: FnMut(&IterationRecord)> Observer for F {
+    fn on_iteration(&mut self, record: &IterationRecord) {
+        self(record)
+    }
+}
+
+/// The paper's initial reference: the straight line from the initial to the
+/// terminal state (mass from m0 to the final-mass guess, δ from δ0 to 0),
+/// with σ at the middle of its bounds and the nozzle-aligned thrust direction.
+pub fn straight_line(tr: &Transcription, tf_s: f64, final_mass_kg: f64) -> Trajectory {
+    let n = tr.layout.n;
+    let mut end = [0.0; NX];
+    end[..6].copy_from_slice(&tr.xf);
+    end[ix::OMEGA] = final_mass_kg.ln();
+    end[ix::DELTA] = 0.0;
+    let x: Vec<[f64; NX]> = tr
+        .lgr
+        .nodes
+        .iter()
+        .map(|&tau| {
+            let s = 0.5 * (tau + 1.0);
+            std::array::from_fn(|c| tr.x0[c] + s * (end[c] - tr.x0[c]))
+        })
+        .collect();
+    let chi_max = tr.model.max_gimbal_rate_radps;
+    let chi = (-tr.x0[ix::DELTA] / tf_s).clamp(-chi_max, chi_max);
+    let thrust = 0.5 * (tr.model.min_thrust_n + tr.model.max_thrust_n);
+    let u = (0..n)
+        .map(|i| {
+            let sigma = thrust * (-x[i][ix::OMEGA]).exp();
+            let phi = x[i][ix::THETA] + x[i][ix::DELTA];
+            let mut u = [0.0; NU_MAX];
+            match tr.form {
+                Formulation::Paper => {
+                    u[0] = sigma * phi.sin();
+                    u[1] = sigma * phi.cos();
+                    u[2] = sigma;
+                    u[3] = chi;
+                }
+                Formulation::Exact => {
+                    u[0] = sigma;
+                    u[1] = chi;
+                }
+            }
+            u
+        })
+        .collect();
+    Trajectory { x, u, tf_s }
+}
+
+/// A converged virtual control at least this large (scaled) is a certificate
+/// that the nonlinear constraints cannot be met; below it, and above the
+/// tolerance, the answer is only "not converged".
+pub const INFEASIBLE_VIRTUAL_CONTROL: f64 = 1e-4;
+
+/// Iterations over which [`stalled`] judges progress.
+const STALL_WINDOW: usize = 8;
+/// Relative merit decrease over the window below which the search has stalled.
+const STALL_DECREASE: f64 = 0.02;
+/// Virtual control (scaled) that the stalled iterates must all still need.
+const STALL_VIRTUAL_CONTROL: f64 = 1e-2;
+
+/// Detect a stalled minimum-violation search: over the last [`STALL_WINDOW`]
+/// iterations every candidate needed virtual control ≥ [`STALL_VIRTUAL_CONTROL`]
+/// and the merit fell by less than [`STALL_DECREASE`] (relative).
+fn stalled(history: &[IterationRecord]) -> Option<String> {
+    if history.len() <= STALL_WINDOW {
+        return None;
+    }
+    let window = &history[history.len() - STALL_WINDOW - 1..];
+    if window
+        .iter()
+        .any(|h| h.virtual_control < STALL_VIRTUAL_CONTROL)
+    {
+        return None;
+    }
+    let accepted: Vec<f64> = window
+        .iter()
+        .filter(|h| h.accepted)
+        .map(|h| h.cost)
+        .collect();
+    let (first, last) = (accepted.first()?, accepted.last()?);
+    let decrease = (first - last) / first.abs().max(1e-12);
+    (decrease < STALL_DECREASE).then(|| {
+        format!(
+            "over the last {STALL_WINDOW} iterations the merit fell by only {:.2}% while the virtual control stayed above {STALL_VIRTUAL_CONTROL:.0e}",
+            100.0 * decrease
+        )
+    })
+}
+
+fn inf_norm_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+}
+
+const STATE_NAMES: [&str; NX] = [
+    "x (horizontal position)",
+    "z (altitude)",
+    "Vx (horizontal velocity)",
+    "Vz (vertical velocity)",
+    "theta (pitch)",
+    "w (pitch rate)",
+    "omega = ln m (mass)",
+    "delta (nozzle angle)",
+];
+
+/// Explain why a stationary point with virtual control is infeasible.
+fn infeasibility_reason(tr: &Transcription, t: &Trajectory, vc: f64) -> String {
+    let d = tr.defects(t);
+    let (mut worst, mut node, mut comp) = (0.0, 0, 0);
+    for (i, row) in d.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            if v.abs() > worst {
+                (worst, node, comp) = (v.abs(), i, c);
+            }
+        }
+    }
+    let mut reason = format!(
+        "no trajectory meets the dynamics and boundary conditions: SCvx settled with virtual control {vc:.2e} (scaled); the largest violation is in the {} equation at t = {:.2} s",
+        STATE_NAMES[comp],
+        tr.lgr.time_s(node, t.tf_s)
+    );
+    let n = tr.layout.n;
+    let mf = t.x[n][ix::OMEGA].exp();
+    if mf <= tr.model.dry_mass_kg * (1.0 + 1e-6) {
+        reason += &format!(
+            "; the propellant runs out (final mass at the dry mass {:.0} kg)",
+            tr.model.dry_mass_kg
+        );
+    }
+    let si = tr.sigma_index();
+    let at_max = (0..n)
+        .filter(|&i| t.u[i][si] * t.x[i][ix::OMEGA].exp() >= tr.model.max_thrust_n * (1.0 - 1e-3))
+        .count();
+    if at_max * 2 >= n {
+        reason += &format!("; thrust is at T_max at {at_max} of {n} nodes");
+    }
+    reason
+}
+
+/// Solve a scenario from the straight-line guess (Section 3.4).
+pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
+    let d = &scenario.discretization;
+    let tr = Transcription::new(scenario, d.nodes);
+    let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
+    solve_from(&tr, guess, &scenario.solver, observer)
+}
+
+/// Solve from a given reference trajectory (a straight line, or a previous plan).
+pub fn solve_from(
+    tr: &Transcription,
+    guess: Trajectory,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+) -> Solution {
+    let start = Instant::now();
+    let mut reference = guess;
+    let mut z_ref = tr.to_scaled(&reference);
+    let mut j_ref = tr.merit(&reference).total;
+    let mut radius = settings.trust_region_initial;
+    let mut history = Vec::new();
+    let mut last_vc = f64::INFINITY;
+    let mut failures = 0;
+    let mut outcome: Option<(Status, String)> = None;
+
+    for iteration in 1..=settings.max_iterations {
+        let t0 = Instant::now();
+        let data = tr.assemble(&reference, radius, settings.proximal_weight);
+        let sub = match tr.solve(&data) {
+            Ok(s) => s,
+            Err(msg) => {
+                // A failed subproblem is treated like a rejected step.
+                failures += 1;
+                radius /= settings.shrink;
+                if radius < settings.trust_region_min || failures > 5 {
+                    outcome = Some((Status::SolverFailed, msg));
+                    break;
+                }
+                continue;
+            }
+        };
+        let merit = tr.merit(&sub.trajectory);
+        let step = inf_norm_diff(&sub.z, &z_ref);
+        let predicted = j_ref - sub.model_cost;
+        let actual = j_ref - merit.total;
+        let rho = if predicted.abs() > 1e-12 {
+            actual / predicted
+        } else {
+            1.0
+        };
+        // Converged: the step (or the predicted decrease) is negligible, and the
+        // candidate meets the nonlinear collocation defects — unless it still
+        // needs so much virtual control that no step can fix it.
+        let converged = (step <= settings.step_tolerance
+            || predicted.abs() <= 1e-10 * (1.0 + j_ref.abs()))
+            && (merit.defect_max <= settings.defect_tolerance
+                || sub.virtual_control >= INFEASIBLE_VIRTUAL_CONTROL);
+        let accepted = converged || rho >= settings.rho0;
+
+        let record = IterationRecord {
+            iteration,
+            cost: merit.total,
+            final_mass_kg: sub.trajectory.x[tr.layout.n][ix::OMEGA].exp(),
+            step,
+            virtual_control: sub.virtual_control,
+            defect: merit.defect_max,
+            trust_radius: radius,
+            rho,
+            accepted,
+            ipm_iterations: sub.ipm_iterations,
+            ms: t0.elapsed().as_secs_f64() * 1e3,
+        };
+        observer.on_iteration(&record);
+        history.push(record);
+
+        if accepted {
+            reference = sub.trajectory;
+            z_ref = sub.z;
+            j_ref = merit.total;
+            last_vc = sub.virtual_control;
+        }
+        if converged {
+            let vc = sub.virtual_control;
+            outcome = Some(if vc <= settings.virtual_control_tolerance {
+                (Status::Solved, String::new())
+            } else if vc >= INFEASIBLE_VIRTUAL_CONTROL {
+                (Status::Infeasible, infeasibility_reason(tr, &reference, vc))
+            } else {
+                (
+                    Status::NotConverged,
+                    format!(
+                        "the step converged but the virtual control {vc:.2e} is above the tolerance {:.1e}",
+                        settings.virtual_control_tolerance
+                    ),
+                )
+            });
+            break;
+        }
+        // A search that keeps needing large virtual control while its merit
+        // barely moves has settled on a minimum of the constraint violation.
+        if let Some(reason) = stalled(&history) {
+            outcome = Some((
+                Status::Infeasible,
+                format!(
+                    "{}; {reason}",
+                    infeasibility_reason(tr, &reference, sub.virtual_control)
+                ),
+            ));
+            break;
+        }
+        if !accepted || rho < settings.rho1 {
+            radius /= settings.shrink;
+        } else if rho >= settings.rho2 {
+            radius = (radius * settings.grow).min(settings.trust_region_max);
+        }
+        if radius < settings.trust_region_min {
+            outcome = Some((
+                Status::NotConverged,
+                format!(
+                    "trust region shrank below {:.1e} without convergence; best iterate returned",
+                    settings.trust_region_min
+                ),
+            ));
+            break;
+        }
+    }
+
+    let (mut status, mut message) = outcome.unwrap_or((
+        Status::NotConverged,
+        format!(
+            "no convergence in {} iterations; best iterate returned",
+            settings.max_iterations
+        ),
+    ));
+    let checks = solution::check(tr, &reference, last_vc);
+    if status == Status::Solved {
+        if checks.relaxation_gap > settings.relaxation_gap_tolerance {
+            status = Status::NonPhysical;
+            message = format!(
+                "lossless relaxation not tight: max(1 - |T|/sigma) = {:.3e} > {:.1e}",
+                checks.relaxation_gap, settings.relaxation_gap_tolerance
+            );
+        } else if checks.thrust_backwards() {
+            status = Status::NonPhysical;
+            message = format!(
+                "thrust points backwards out of the nozzle (min cosine {:.3})",
+                checks.thrust_alignment_min
+            );
+        }
+    }
+    let ms = start.elapsed().as_secs_f64() * 1e3;
+    Solution::new(tr, reference, status, message, checks, history, ms)
+}

@@ -1,0 +1,220 @@
+//! The result of a solve: status, trajectory in physical units, checks and history.
+
+use serde::Serialize;
+
+use crate::dynamics::{self, ix};
+use crate::scenario::Formulation;
+use crate::transcription::{Trajectory, Transcription};
+
+/// How a solve ended. Each variant has its own exit code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// Converged, dynamics met, and the physical checks pass.
+    Solved,
+    /// Converged, but the relaxation is not tight or the thrust points backwards.
+    NonPhysical,
+    /// The iteration settled on a point that still needs virtual control:
+    /// no trajectory meets the dynamics, bounds and boundary conditions.
+    Infeasible,
+    /// Iteration or trust-region limit reached; the best iterate is returned.
+    NotConverged,
+    /// The conic solver failed on every attempt.
+    SolverFailed,
+}
+
+impl Status {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Status::Solved => "solved",
+            Status::NonPhysical => "non_physical",
+            Status::Infeasible => "infeasible",
+            Status::NotConverged => "not_converged",
+            Status::SolverFailed => "solver_failed",
+        }
+    }
+
+    /// Process exit code: 0 solved, 3 infeasible, 4 not converged,
+    /// 5 non-physical, 6 solver failure (2 is bad input, before any solve).
+    pub fn exit_code(self) -> i32 {
+        match self {
+            Status::Solved => 0,
+            Status::Infeasible => 3,
+            Status::NotConverged => 4,
+            Status::NonPhysical => 5,
+            Status::SolverFailed => 6,
+        }
+    }
+}
+
+/// One SCvx iteration, as recorded by the driver loop.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IterationRecord {
+    pub iteration: usize,
+    /// Penalized nonlinear cost J of the candidate (scaled).
+    pub cost: f64,
+    /// Final mass of the candidate [kg].
+    pub final_mass_kg: f64,
+    /// ‖Δẑ‖∞ of the candidate against the reference (scaled).
+    pub step: f64,
+    /// Largest virtual control or buffer of the candidate (scaled).
+    pub virtual_control: f64,
+    /// Largest nonlinear collocation defect of the candidate (scaled).
+    pub defect: f64,
+    /// Trust-region radius the subproblem was solved with.
+    pub trust_radius: f64,
+    /// Acceptance ratio ρ = actual / predicted decrease of J.
+    pub rho: f64,
+    pub accepted: bool,
+    pub ipm_iterations: u32,
+    pub ms: f64,
+}
+
+/// Checks of the returned trajectory against the nonlinear problem.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Checks {
+    /// max over nodes of 1 − ‖(Txm, Tzm)‖/σ (0 when the cone is tight).
+    pub relaxation_gap: f64,
+    /// min over nodes of the cosine between the thrust and the nozzle axis
+    /// (1 = along the nozzle, < 0 = pointing backwards).
+    pub thrust_alignment_min: f64,
+    /// Largest thrust-bound violation max(T_min − T, T − T_max, 0) [N].
+    pub thrust_bound_violation_n: f64,
+    /// Largest nonlinear collocation defect (scaled by each state's scale).
+    pub max_defect: f64,
+    /// Largest virtual control of the last subproblem (scaled).
+    pub virtual_control: f64,
+}
+
+impl Checks {
+    pub fn thrust_backwards(&self) -> bool {
+        self.thrust_alignment_min < 0.0
+    }
+}
+
+/// A solved (or best-effort) landing trajectory in physical units.
+///
+/// Node arrays have N+1 entries at the LGR points (time t = (τ+1)·t_f/2).
+/// Controls live on the N collocation points; their value at t_f repeats the
+/// last collocation point.
+#[derive(Debug, Clone, Serialize)]
+pub struct Solution {
+    pub status: Status,
+    /// Why the status is not `solved`, or empty.
+    pub message: String,
+    pub formulation: Formulation,
+    pub nodes: usize,
+    pub tf_s: f64,
+    pub final_mass_kg: f64,
+    pub fuel_kg: f64,
+    pub iterations: usize,
+    pub solve_time_ms: f64,
+    pub t_s: Vec<f64>,
+    pub x_m: Vec<f64>,
+    pub z_m: Vec<f64>,
+    pub vx_mps: Vec<f64>,
+    pub vz_mps: Vec<f64>,
+    pub theta_rad: Vec<f64>,
+    pub pitch_rate_radps: Vec<f64>,
+    pub mass_kg: Vec<f64>,
+    pub delta_rad: Vec<f64>,
+    pub thrust_n: Vec<f64>,
+    pub gimbal_rate_radps: Vec<f64>,
+    pub checks: Checks,
+    pub history: Vec<IterationRecord>,
+    /// The LCvx trajectory itself, for warm starts and re-propagation.
+    #[serde(skip)]
+    pub trajectory: Trajectory,
+}
+
+/// Evaluate the physical checks of a trajectory.
+pub fn check(tr: &Transcription, t: &Trajectory, virtual_control: f64) -> Checks {
+    let mut gap = 0.0f64;
+    let mut align = 1.0f64;
+    let mut bound = 0.0f64;
+    let si = tr.sigma_index();
+    for i in 0..tr.layout.n {
+        let x = &t.x[i];
+        let (txm, tzm, sigma) = dynamics::thrust_components(tr.form, x, &t.u[i][..tr.layout.nu]);
+        let norm = txm.hypot(tzm);
+        if sigma > 0.0 {
+            gap = gap.max(1.0 - norm / sigma);
+        }
+        let phi = x[ix::THETA] + x[ix::DELTA];
+        if norm > 0.0 {
+            align = align.min((txm * phi.sin() + tzm * phi.cos()) / norm);
+        }
+        let thrust = t.u[i][si] * x[ix::OMEGA].exp();
+        bound = bound
+            .max(tr.model.min_thrust_n - thrust)
+            .max(thrust - tr.model.max_thrust_n);
+    }
+    let max_defect = tr
+        .defects(t)
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    Checks {
+        relaxation_gap: gap,
+        thrust_alignment_min: align,
+        thrust_bound_violation_n: bound,
+        max_defect,
+        virtual_control,
+    }
+}
+
+impl Solution {
+    /// Assemble the physical-unit arrays of a trajectory.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        tr: &Transcription,
+        t: Trajectory,
+        status: Status,
+        message: String,
+        checks: Checks,
+        history: Vec<IterationRecord>,
+        solve_time_ms: f64,
+    ) -> Self {
+        let n = tr.layout.n;
+        let col = |c: usize| t.x.iter().map(|x| x[c]).collect::<Vec<f64>>();
+        let si = tr.sigma_index();
+        let chi = tr.layout.nu - 1;
+        let ctrl = |i: usize| &t.u[i.min(n - 1)];
+        let mass_kg: Vec<f64> = t.x.iter().map(|x| x[ix::OMEGA].exp()).collect();
+        let thrust_n = (0..=n).map(|k| ctrl(k)[si] * mass_kg[k]).collect();
+        let gimbal_rate_radps = (0..=n).map(|k| ctrl(k)[chi]).collect();
+        let final_mass_kg = mass_kg[n];
+        Solution {
+            status,
+            message,
+            formulation: tr.form,
+            nodes: n,
+            tf_s: t.tf_s,
+            final_mass_kg,
+            fuel_kg: mass_kg[0] - final_mass_kg,
+            iterations: history.len(),
+            solve_time_ms,
+            t_s: (0..=n).map(|k| tr.lgr.time_s(k, t.tf_s)).collect(),
+            x_m: col(ix::X),
+            z_m: col(ix::Z),
+            vx_mps: col(ix::VX),
+            vz_mps: col(ix::VZ),
+            theta_rad: col(ix::THETA),
+            pitch_rate_radps: col(ix::W),
+            mass_kg,
+            delta_rad: col(ix::DELTA),
+            thrust_n,
+            gimbal_rate_radps,
+            checks,
+            history,
+            trajectory: t,
+        }
+    }
+
+    /// One JSON object with the status, scalars, node arrays, checks and history.
+    pub fn to_json(&self) -> serde_json::Value {
+        let mut v = serde_json::to_value(self).expect("a Solution serializes");
+        v["status"] = self.status.as_str().into();
+        v
+    }
+}

@@ -1,0 +1,646 @@
+//! The convex subproblem P4 (Eq. 26–30) as sparse conic data for Clarabel.
+//!
+//! This is the one place that builds solver data. Decision variables are scaled
+//! to order one (`value = offset + scale·ẑ`); every constraint row is divided by
+//! the scale of the quantity it constrains.
+//!
+//! Variables, in order: states X̂ at the N+1 LGR points, controls Û at the N
+//! collocation points, t̂_f; then the non-negative penalty variables: virtual
+//! control ν⁺, ν⁻ on every collocation defect, buffers on the two σ bounds, and
+//! (paper formulation) ν⁺, ν⁻ on the linearized direction constraint (Eq. 27).
+//! Their weighted sum is the exact penalty that keeps every subproblem feasible.
+
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
+
+use crate::dynamics::{self, ix, Model, NU_MAX, NX};
+use crate::radau::Lgr;
+use crate::scenario::{Formulation, Scenario};
+
+/// A trajectory in physical units (SI, radians, ω = ln m) on the LGR grid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trajectory {
+    /// States at the N+1 points τ_1 = −1, …, τ_N, τ_{N+1} = +1.
+    pub x: Vec<[f64; NX]>,
+    /// Controls at the N collocation points (first `control_dim` entries used).
+    pub u: Vec<[f64; NU_MAX]>,
+    pub tf_s: f64,
+}
+
+/// Index map of the decision vector.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Layout {
+    pub n: usize,
+    pub nu: usize,
+    pub direction_rows: bool,
+}
+
+impl Layout {
+    pub fn x(&self, k: usize, c: usize) -> usize {
+        k * NX + c
+    }
+    pub fn u(&self, i: usize, c: usize) -> usize {
+        NX * (self.n + 1) + i * self.nu + c
+    }
+    pub fn tf(&self) -> usize {
+        NX * (self.n + 1) + self.nu * self.n
+    }
+    /// Number of trajectory variables (states, controls, t_f): the trust region acts on these.
+    pub fn n_primal(&self) -> usize {
+        self.tf() + 1
+    }
+    pub fn vc_pos(&self, i: usize, c: usize) -> usize {
+        self.n_primal() + i * NX + c
+    }
+    pub fn vc_neg(&self, i: usize, c: usize) -> usize {
+        self.n_primal() + NX * self.n + i * NX + c
+    }
+    /// Buffer on the lower (side 0) or upper (side 1) σ bound at node i.
+    pub fn buffer(&self, i: usize, side: usize) -> usize {
+        self.n_primal() + 2 * NX * self.n + 2 * i + side
+    }
+    /// Virtual control on the direction constraint: positive (side 0) or negative part.
+    pub fn dir(&self, i: usize, side: usize) -> usize {
+        debug_assert!(self.direction_rows);
+        self.n_primal() + 2 * NX * self.n + 2 * self.n + 2 * i + side
+    }
+    pub fn n_var(&self) -> usize {
+        self.n_primal()
+            + 2 * NX * self.n
+            + 2 * self.n
+            + if self.direction_rows { 2 * self.n } else { 0 }
+    }
+}
+
+/// Affine scaling of every trajectory variable: value = offset + scale·ẑ.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scaling {
+    pub x_offset: [f64; NX],
+    pub x_scale: [f64; NX],
+    pub u_scale: [f64; NU_MAX],
+    pub tf_scale: f64,
+}
+
+impl Scaling {
+    /// Scales from the scenario's own magnitudes, so every ẑ is of order one.
+    pub fn new(s: &Scenario, model: &Model, form: Formulation) -> Self {
+        let (i, t) = (&s.initial, &s.terminal);
+        let length = (i.x_m - t.x_m).abs().max((i.z_m - t.z_m).abs()).max(1.0);
+        let speed = i
+            .vx_mps
+            .hypot(i.vz_mps)
+            .max(t.vx_mps.hypot(t.vz_mps))
+            .max(1.0);
+        let angle = (i.theta_deg - t.theta_deg).to_radians().abs().max(0.1);
+        let tf = s.discretization.tf_guess_s;
+        let rate = angle / (0.25 * tf);
+        let omega_span = (i.mass_kg / model.dry_mass_kg).ln();
+        let accel = model.max_thrust_n / i.mass_kg;
+        let sigma_scale = accel;
+        let u_scale = match form {
+            Formulation::Paper => [
+                sigma_scale,
+                sigma_scale,
+                sigma_scale,
+                model.max_gimbal_rate_radps,
+            ],
+            Formulation::Exact => [sigma_scale, model.max_gimbal_rate_radps, 1.0, 1.0],
+        };
+        Scaling {
+            x_offset: [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, i.mass_kg.ln(), 0.0],
+            x_scale: [
+                length,
+                length,
+                speed,
+                speed,
+                angle,
+                rate,
+                omega_span,
+                model.max_gimbal_rad,
+            ],
+            u_scale,
+            tf_scale: tf,
+        }
+    }
+}
+
+/// Everything about the subproblem that does not change between SCvx iterations.
+#[derive(Debug, Clone)]
+pub struct Transcription {
+    pub model: Model,
+    pub form: Formulation,
+    pub lgr: Lgr,
+    pub layout: Layout,
+    pub scaling: Scaling,
+    /// Initial state (all 8 LCvx states) and terminal x, z, Vx, Vz, θ, w, physical.
+    pub x0: [f64; NX],
+    pub xf: [f64; 6],
+    /// Exact-penalty weight λ.
+    pub penalty: f64,
+    /// Scaled bounds of the trajectory variables (±∞ where free).
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+}
+
+/// Conic data of one subproblem: minimize qᵀz s.t. A z + s = b, s ∈ cones.
+#[derive(Debug, Clone)]
+pub struct ConicData {
+    /// Upper triangle of the quadratic cost: the proximal term w·‖ẑ − ẑ_ref‖².
+    pub p: CscMatrix<f64>,
+    /// Linear cost of the convex model L (cost plus exact penalty).
+    pub q_model: Vec<f64>,
+    /// Linear cost including the proximal term's linear part.
+    pub q: Vec<f64>,
+    pub a: CscMatrix<f64>,
+    pub b: Vec<f64>,
+    pub cones: Vec<SupportedConeT<f64>>,
+}
+
+/// The answer of one subproblem.
+#[derive(Debug, Clone)]
+pub struct SubproblemResult {
+    pub trajectory: Trajectory,
+    /// Scaled trajectory variables.
+    pub z: Vec<f64>,
+    /// Objective of the convex model L(z) (cost plus linear penalty).
+    pub model_cost: f64,
+    /// Largest virtual control or buffer (scaled ∞-norm).
+    pub virtual_control: f64,
+    pub ipm_iterations: u32,
+    pub status: SolverStatus,
+}
+
+/// Value of the penalized nonlinear cost J(z) (SCvx merit function).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Merit {
+    /// Scaled cost −ω̂(t_f).
+    pub cost: f64,
+    /// Σ |collocation defect| (scaled, Eq. 24).
+    pub defect_l1: f64,
+    /// Largest |collocation defect| (scaled).
+    pub defect_max: f64,
+    /// Σ path-constraint violation (σ bounds, Eq. 20; direction, Eq. 18), scaled.
+    pub path_l1: f64,
+    /// cost + λ·(defect_l1 + path_l1).
+    pub total: f64,
+}
+
+struct Rows {
+    i: Vec<usize>,
+    j: Vec<usize>,
+    v: Vec<f64>,
+    b: Vec<f64>,
+}
+
+impl Rows {
+    fn new() -> Self {
+        Rows {
+            i: vec![],
+            j: vec![],
+            v: vec![],
+            b: vec![],
+        }
+    }
+    fn push(&mut self, entries: &[(usize, f64)], rhs: f64) {
+        let r = self.b.len();
+        for &(j, v) in entries {
+            self.i.push(r);
+            self.j.push(j);
+            self.v.push(v);
+        }
+        self.b.push(rhs);
+    }
+    fn entry(&mut self, j: usize, v: f64) {
+        self.i.push(self.b.len());
+        self.j.push(j);
+        self.v.push(v);
+    }
+    fn finish_row(&mut self, rhs: f64) {
+        self.b.push(rhs);
+    }
+}
+
+impl Transcription {
+    pub fn new(s: &Scenario, nodes: usize) -> Self {
+        let model = Model::new(&s.vehicle, &s.environment);
+        let form = s.solver.formulation;
+        let layout = Layout {
+            n: nodes,
+            nu: dynamics::control_dim(form),
+            direction_rows: form == Formulation::Paper,
+        };
+        let scaling = Scaling::new(s, &model, form);
+        let i = &s.initial;
+        let t = &s.terminal;
+        let x0 = [
+            i.x_m,
+            i.z_m,
+            i.vx_mps,
+            i.vz_mps,
+            i.theta_deg.to_radians(),
+            i.pitch_rate_degps.to_radians(),
+            i.mass_kg.ln(),
+            i.gimbal_deg.to_radians(),
+        ];
+        let xf = [
+            t.x_m,
+            t.z_m,
+            t.vx_mps,
+            t.vz_mps,
+            t.theta_deg.to_radians(),
+            t.pitch_rate_degps.to_radians(),
+        ];
+        let mut tr = Transcription {
+            lgr: Lgr::new(nodes),
+            model,
+            form,
+            layout,
+            scaling,
+            x0,
+            xf,
+            penalty: s.solver.virtual_control_weight,
+            lo: vec![],
+            hi: vec![],
+        };
+        tr.set_bounds();
+        tr
+    }
+
+    fn set_bounds(&mut self) {
+        let l = self.layout;
+        let sc = &self.scaling;
+        let mut lo = vec![f64::NEG_INFINITY; l.n_primal()];
+        let mut hi = vec![f64::INFINITY; l.n_primal()];
+        let dmax = self.model.max_gimbal_rad / sc.x_scale[ix::DELTA];
+        for k in 0..=l.n {
+            lo[l.x(k, ix::DELTA)] = -dmax;
+            hi[l.x(k, ix::DELTA)] = dmax;
+        }
+        // ω(t_f) ≥ ln m_dry (Eq. 17)
+        lo[l.x(l.n, ix::OMEGA)] =
+            (self.model.dry_mass_kg.ln() - sc.x_offset[ix::OMEGA]) / sc.x_scale[ix::OMEGA];
+        let chi = l.nu - 1;
+        let sigma = if self.form == Formulation::Paper {
+            2
+        } else {
+            0
+        };
+        for i in 0..l.n {
+            let cmax = self.model.max_gimbal_rate_radps / sc.u_scale[chi];
+            lo[l.u(i, chi)] = -cmax;
+            hi[l.u(i, chi)] = cmax;
+            lo[l.u(i, sigma)] = 0.0;
+        }
+        // t_f > 0; a landing burn of less than 2 % of the guess is not sought.
+        lo[l.tf()] = 0.02;
+        self.lo = lo;
+        self.hi = hi;
+    }
+
+    /// Index of σ in the control vector.
+    pub fn sigma_index(&self) -> usize {
+        match self.form {
+            Formulation::Paper => 2,
+            Formulation::Exact => 0,
+        }
+    }
+
+    /// Physical → scaled trajectory variables.
+    pub fn to_scaled(&self, t: &Trajectory) -> Vec<f64> {
+        let l = self.layout;
+        let sc = &self.scaling;
+        let mut z = vec![0.0; l.n_primal()];
+        for (k, xk) in t.x.iter().enumerate() {
+            for c in 0..NX {
+                z[l.x(k, c)] = (xk[c] - sc.x_offset[c]) / sc.x_scale[c];
+            }
+        }
+        for (i, ui) in t.u.iter().enumerate() {
+            for c in 0..l.nu {
+                z[l.u(i, c)] = ui[c] / sc.u_scale[c];
+            }
+        }
+        z[l.tf()] = t.tf_s / sc.tf_scale;
+        z
+    }
+
+    /// Scaled → physical trajectory.
+    pub fn from_scaled(&self, z: &[f64]) -> Trajectory {
+        let l = self.layout;
+        let sc = &self.scaling;
+        let x = (0..=l.n)
+            .map(|k| std::array::from_fn(|c| sc.x_offset[c] + sc.x_scale[c] * z[l.x(k, c)]))
+            .collect();
+        let u = (0..l.n)
+            .map(|i| {
+                std::array::from_fn(|c| {
+                    if c < l.nu {
+                        sc.u_scale[c] * z[l.u(i, c)]
+                    } else {
+                        0.0
+                    }
+                })
+            })
+            .collect();
+        Trajectory {
+            x,
+            u,
+            tf_s: sc.tf_scale * z[l.tf()],
+        }
+    }
+
+    /// Thrust direction φ = atan2(Txm, Tzm) of the paper's controls, with its
+    /// gradient (k_x, k_z) (Eq. 27). A zero vector takes the nozzle direction.
+    fn direction(&self, x: &[f64; NX], u: &[f64; NU_MAX]) -> (f64, f64, f64) {
+        let (mut tx, mut tz) = (u[0], u[1]);
+        let r2 = tx * tx + tz * tz;
+        if r2 < 1e-12 {
+            let phi = x[ix::THETA] + x[ix::DELTA];
+            let s = u[2].max(1e-3);
+            tx = s * phi.sin();
+            tz = s * phi.cos();
+        }
+        let r2 = tx * tx + tz * tz;
+        (tx.atan2(tz), tz / r2, -tx / r2)
+    }
+
+    /// Nonlinear collocation defects (Eq. 24, divided by each state's scale).
+    pub fn defects(&self, t: &Trajectory) -> Vec<[f64; NX]> {
+        let n = self.layout.n;
+        (0..n)
+            .map(|i| {
+                let f =
+                    dynamics::rhs_lcvx(&self.model, self.form, &t.x[i], &t.u[i][..self.layout.nu]);
+                std::array::from_fn(|c| {
+                    let dx: f64 = (0..=n).map(|j| self.lgr.d(i, j) * t.x[j][c]).sum();
+                    (dx - 0.5 * t.tf_s * f[c]) / self.scaling.x_scale[c]
+                })
+            })
+            .collect()
+    }
+
+    /// Path-constraint violations per node (scaled): σ bounds (Eq. 20) and,
+    /// for the paper's formulation, the direction equality (Eq. 18).
+    fn path_violation(&self, t: &Trajectory) -> f64 {
+        let si = self.sigma_index();
+        let s_sigma = self.scaling.u_scale[si];
+        let mut total = 0.0;
+        for i in 0..self.layout.n {
+            let inv_m = (-t.x[i][ix::OMEGA]).exp();
+            let sigma = t.u[i][si];
+            total += (self.model.min_thrust_n * inv_m - sigma).max(0.0) / s_sigma;
+            total += (sigma - self.model.max_thrust_n * inv_m).max(0.0) / s_sigma;
+            if self.layout.direction_rows {
+                let (phi, _, _) = self.direction(&t.x[i], &t.u[i]);
+                total += wrap_angle(phi - t.x[i][ix::THETA] - t.x[i][ix::DELTA]).abs();
+            }
+        }
+        total
+    }
+
+    /// The SCvx merit function J: scaled cost plus λ·(nonlinear constraint violation).
+    pub fn merit(&self, t: &Trajectory) -> Merit {
+        let l = self.layout;
+        let omega_f = t.x[l.n][ix::OMEGA];
+        let cost = -(omega_f - self.scaling.x_offset[ix::OMEGA]) / self.scaling.x_scale[ix::OMEGA];
+        let d = self.defects(t);
+        let defect_l1: f64 = d.iter().flatten().map(|v| v.abs()).sum();
+        let defect_max = d.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+        let path_l1 = self.path_violation(t);
+        Merit {
+            cost,
+            defect_l1,
+            defect_max,
+            path_l1,
+            total: cost + self.penalty * (defect_l1 + path_l1),
+        }
+    }
+
+    /// Assemble P4 linearized about `reference`, with an ∞-norm trust region of
+    /// scaled radius `radius` (Eq. 29).
+    ///
+    /// `proximal_weight` w adds w·‖ẑ − ẑ_ref‖² over the trajectory variables. It
+    /// vanishes at convergence, so it does not move the optimum, but it makes the
+    /// subproblem strongly convex: without it the solution of the (linear-cost)
+    /// subproblem jumps between vertices on singular arcs — the gimbal rate χ
+    /// chatters between ±χ_max — and the trust region binds on every iteration.
+    pub fn assemble(&self, reference: &Trajectory, radius: f64, proximal_weight: f64) -> ConicData {
+        let l = self.layout;
+        let sc = &self.scaling;
+        let n = l.n;
+        let zref = self.to_scaled(reference);
+        let tf = reference.tf_s;
+
+        let mut eq = Rows::new();
+        // Collocation defects, linearized (Eq. 24–26) with virtual control.
+        for i in 0..n {
+            let lin = dynamics::linearize(
+                &self.model,
+                self.form,
+                &reference.x[i],
+                &reference.u[i][..l.nu],
+            );
+            for c in 0..NX {
+                let inv = 1.0 / sc.x_scale[c];
+                for j in 0..=n {
+                    eq.entry(l.x(j, c), self.lgr.d(i, j));
+                }
+                let mut rhs = 0.0;
+                for c2 in 0..NX {
+                    let coef = -0.5 * tf * lin.a[c][c2] * sc.x_scale[c2] * inv;
+                    if coef != 0.0 {
+                        eq.entry(l.x(i, c2), coef);
+                    }
+                    rhs += coef * zref[l.x(i, c2)];
+                }
+                for c2 in 0..l.nu {
+                    let coef = -0.5 * tf * lin.b[c][c2] * sc.u_scale[c2] * inv;
+                    if coef != 0.0 {
+                        eq.entry(l.u(i, c2), coef);
+                    }
+                    rhs += coef * zref[l.u(i, c2)];
+                }
+                eq.entry(l.tf(), -0.5 * lin.f[c] * sc.tf_scale * inv);
+                eq.entry(l.vc_pos(i, c), 1.0);
+                eq.entry(l.vc_neg(i, c), -1.0);
+                eq.finish_row(rhs);
+            }
+        }
+        // Boundary conditions (Eq. 4).
+        for c in 0..NX {
+            eq.push(
+                &[(l.x(0, c), 1.0)],
+                (self.x0[c] - sc.x_offset[c]) / sc.x_scale[c],
+            );
+        }
+        for c in 0..6 {
+            eq.push(
+                &[(l.x(n, c), 1.0)],
+                (self.xf[c] - sc.x_offset[c]) / sc.x_scale[c],
+            );
+        }
+        // Paper formulation: linearized direction constraint (Eq. 27).
+        if l.direction_rows {
+            for i in 0..n {
+                let (phi, kx, kz) = self.direction(&reference.x[i], &reference.u[i]);
+                let u = &reference.u[i];
+                eq.push(
+                    &[
+                        (l.u(i, 0), kx * sc.u_scale[0]),
+                        (l.u(i, 1), kz * sc.u_scale[1]),
+                        (l.x(i, ix::THETA), -sc.x_scale[ix::THETA]),
+                        (l.x(i, ix::DELTA), -sc.x_scale[ix::DELTA]),
+                        (l.dir(i, 0), 1.0),
+                        (l.dir(i, 1), -1.0),
+                    ],
+                    -phi + kx * u[0] + kz * u[1] + sc.x_offset[ix::THETA] + sc.x_offset[ix::DELTA],
+                );
+            }
+        }
+
+        let mut ineq = Rows::new();
+        // Variable bounds intersected with the trust region (Eq. 29).
+        for (p, (&zr, (&lo, &hi))) in zref.iter().zip(self.lo.iter().zip(&self.hi)).enumerate() {
+            let centre = zr.clamp(lo, hi);
+            let hi = hi.min(centre + radius);
+            let lo = lo.max(centre - radius);
+            ineq.push(&[(p, 1.0)], hi);
+            ineq.push(&[(p, -1.0)], -lo);
+        }
+        // Linearized thrust bounds (Eq. 28) with penalized buffers.
+        let si = self.sigma_index();
+        let s_sigma = sc.u_scale[si];
+        let (s_om, o_om) = (sc.x_scale[ix::OMEGA], sc.x_offset[ix::OMEGA]);
+        for i in 0..n {
+            let w0 = reference.x[i][ix::OMEGA];
+            let e = (-w0).exp();
+            for (side, thrust, sign) in [
+                (0, self.model.min_thrust_n, -1.0),
+                (1, self.model.max_thrust_n, 1.0),
+            ] {
+                // sign·(σ − T e^{−ω̄}(1 − (ω − ω̄))) ≤ buffer
+                let k = thrust * e;
+                ineq.push(
+                    &[
+                        (l.u(i, si), sign),
+                        (l.x(i, ix::OMEGA), sign * k * s_om / s_sigma),
+                        (l.buffer(i, side), -1.0),
+                    ],
+                    sign * k * (1.0 + w0 - o_om) / s_sigma,
+                );
+            }
+        }
+        // Penalty variables are non-negative.
+        for p in l.n_primal()..l.n_var() {
+            ineq.push(&[(p, -1.0)], 0.0);
+        }
+
+        let mut soc = Rows::new();
+        if self.form == Formulation::Paper {
+            // ‖(Txm, Tzm)‖ ≤ σ (Eq. 19); the three share one scale.
+            for i in 0..n {
+                soc.push(&[(l.u(i, 2), -1.0)], 0.0);
+                soc.push(&[(l.u(i, 0), -1.0)], 0.0);
+                soc.push(&[(l.u(i, 1), -1.0)], 0.0);
+            }
+        }
+
+        let (m_eq, m_in, m_soc) = (eq.b.len(), ineq.b.len(), soc.b.len());
+        let mut rows = eq.i;
+        rows.extend(ineq.i.iter().map(|r| r + m_eq));
+        rows.extend(soc.i.iter().map(|r| r + m_eq + m_in));
+        let mut cols = eq.j;
+        cols.extend(ineq.j);
+        cols.extend(soc.j);
+        let mut vals = eq.v;
+        vals.extend(ineq.v);
+        vals.extend(soc.v);
+        let mut b = eq.b;
+        b.extend(ineq.b);
+        b.extend(soc.b);
+        let m = m_eq + m_in + m_soc;
+        let a = CscMatrix::new_from_triplets(m, l.n_var(), rows, cols, vals);
+
+        let mut cones = vec![
+            SupportedConeT::ZeroConeT(m_eq),
+            SupportedConeT::NonnegativeConeT(m_in),
+        ];
+        cones.extend((0..m_soc / 3).map(|_| SupportedConeT::SecondOrderConeT(3)));
+
+        let mut q = vec![0.0; l.n_var()];
+        q[l.x(n, ix::OMEGA)] = -1.0;
+        q[l.n_primal()..].fill(self.penalty);
+        let q_model = q.clone();
+        let np = l.n_primal();
+        let p = if proximal_weight > 0.0 {
+            for (k, zr) in zref.iter().enumerate() {
+                q[k] -= 2.0 * proximal_weight * zr;
+            }
+            CscMatrix::new(
+                l.n_var(),
+                l.n_var(),
+                (0..=l.n_var()).map(|c| c.min(np)).collect(),
+                (0..np).collect(),
+                vec![2.0 * proximal_weight; np],
+            )
+        } else {
+            CscMatrix::zeros((l.n_var(), l.n_var()))
+        };
+        ConicData {
+            p,
+            q_model,
+            q,
+            a,
+            b,
+            cones,
+        }
+    }
+
+    /// Solve one subproblem with Clarabel. `None` if the solver fails outright.
+    pub fn solve(&self, data: &ConicData) -> Result<SubproblemResult, String> {
+        let l = self.layout;
+        let settings = DefaultSettings {
+            verbose: false,
+            ..DefaultSettings::default()
+        };
+        let mut solver =
+            DefaultSolver::new(&data.p, &data.q, &data.a, &data.b, &data.cones, settings)
+                .map_err(|e| format!("Clarabel setup failed: {e}"))?;
+        solver.solve();
+        let sol = &solver.solution;
+        match sol.status {
+            SolverStatus::Solved | SolverStatus::AlmostSolved => {}
+            other => return Err(format!("Clarabel status {other:?}")),
+        }
+        let z = sol.x[..l.n_primal()].to_vec();
+        let mut vc = 0.0f64;
+        for i in 0..l.n {
+            for c in 0..NX {
+                vc = vc.max((sol.x[l.vc_pos(i, c)] - sol.x[l.vc_neg(i, c)]).abs());
+            }
+            vc = vc.max(sol.x[l.buffer(i, 0)]).max(sol.x[l.buffer(i, 1)]);
+            if l.direction_rows {
+                vc = vc.max((sol.x[l.dir(i, 0)] - sol.x[l.dir(i, 1)]).abs());
+            }
+        }
+        Ok(SubproblemResult {
+            trajectory: self.from_scaled(&z),
+            z,
+            model_cost: data.q_model.iter().zip(&sol.x).map(|(q, x)| q * x).sum(),
+            virtual_control: vc,
+            ipm_iterations: sol.iterations,
+            status: sol.status,
+        })
+    }
+}
+
+/// Wrap an angle to (−π, π].
+pub fn wrap_angle(a: f64) -> f64 {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let r = a.rem_euclid(two_pi);
+    if r > std::f64::consts::PI {
+        r - two_pi
+    } else {
+        r
+    }
+}
