@@ -1,1 +1,137 @@
-fn main() {}
+//! `bellyflop`: solve flip-and-land trajectories from the shell.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use bellyflop::solution::IterationRecord;
+use bellyflop::{Formulation, Scenario, Solution};
+use clap::{Parser, Subcommand, ValueEnum};
+
+#[derive(Parser)]
+#[command(
+    name = "bellyflop",
+    version,
+    about = "Fuel-optimal flip-and-land trajectories (LGR collocation + successive convexification)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Solve one landing problem (the paper's case by default).
+    Solve(SolveArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum FormulationArg {
+    Exact,
+    Paper,
+}
+
+#[derive(clap::Args, Default)]
+struct SolveArgs {
+    /// Scenario TOML file; the paper's case when omitted.
+    #[arg(long)]
+    scenario: Option<PathBuf>,
+    /// Number of LGR collocation points N (4 to 100); overrides the scenario.
+    #[arg(long)]
+    nodes: Option<usize>,
+    /// Thrust-direction formulation; overrides the scenario.
+    #[arg(long, value_enum)]
+    formulation: Option<FormulationArg>,
+    /// Print one JSON object on stdout instead of a summary.
+    #[arg(long)]
+    json: bool,
+    /// Do not print per-iteration progress on stderr.
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// Exit code for bad input (before any solve).
+const EXIT_BAD_INPUT: u8 = 2;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command.unwrap_or(Command::Solve(SolveArgs::default())) {
+        Command::Solve(args) => solve(args),
+    }
+}
+
+fn load(args: &SolveArgs) -> Result<Scenario, bellyflop::InputError> {
+    let mut scenario = match &args.scenario {
+        Some(path) => Scenario::from_file(path)?,
+        None => Scenario::paper(),
+    };
+    if let Some(n) = args.nodes {
+        scenario.discretization.nodes = n;
+    }
+    if let Some(f) = args.formulation {
+        scenario.solver.formulation = match f {
+            FormulationArg::Exact => Formulation::Exact,
+            FormulationArg::Paper => Formulation::Paper,
+        };
+    }
+    scenario.validate()?;
+    Ok(scenario)
+}
+
+fn solve(args: SolveArgs) -> ExitCode {
+    let scenario = match load(&args) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let quiet = args.quiet || args.json;
+    let mut progress = |r: &IterationRecord| {
+        if !quiet {
+            eprintln!(
+                "iter {:>3}  J {:>+12.6e}  m_f {:>10.1} kg  step {:>9.2e}  vc {:>9.2e}  radius {:>8.2e}  rho {:>+7.3}  {}  ipm {:>2}  {:>7.2} ms",
+                r.iteration,
+                r.cost,
+                r.final_mass_kg,
+                r.step,
+                r.virtual_control,
+                r.trust_radius,
+                r.rho,
+                if r.accepted { "acc" } else { "rej" },
+                r.ipm_iterations,
+                r.ms
+            );
+        }
+    };
+    let solution = bellyflop::solve(&scenario, &mut progress);
+    if args.json {
+        println!("{}", solution.to_json());
+    } else {
+        print_summary(&scenario, &solution);
+    }
+    ExitCode::from(solution.status.exit_code() as u8)
+}
+
+fn print_summary(scenario: &Scenario, s: &Solution) {
+    println!("scenario      {}", scenario.name);
+    println!("status        {}", s.status.as_str());
+    if !s.message.is_empty() {
+        println!("reason        {}", s.message);
+    }
+    println!("formulation   {:?}, N = {}", s.formulation, s.nodes);
+    println!("t_f           {:.4} s", s.tf_s);
+    println!(
+        "final mass    {:.1} kg (fuel {:.1} kg)",
+        s.final_mass_kg, s.fuel_kg
+    );
+    println!(
+        "iterations    {} SCvx, {} interior-point in all",
+        s.iterations,
+        s.history.iter().map(|h| h.ipm_iterations).sum::<u32>()
+    );
+    println!("solve time    {:.1} ms", s.solve_time_ms);
+    println!(
+        "checks        defect {:.1e}, virtual control {:.1e}, relaxation gap {:.1e}, thrust alignment {:.6}",
+        s.checks.max_defect, s.checks.virtual_control, s.checks.relaxation_gap, s.checks.thrust_alignment_min
+    );
+}

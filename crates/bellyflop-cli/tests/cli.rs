@@ -1,0 +1,116 @@
+//! The `bellyflop` binary: JSON output, exit codes and error messages.
+
+use std::process::Command;
+
+fn bellyflop(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_bellyflop"))
+        .args(args)
+        .output()
+        .expect("the binary runs");
+    (
+        out.status.code().expect("exited normally, not by a signal"),
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    )
+}
+
+fn write_scenario(name: &str, edit: impl Fn(&str) -> String) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("bellyflop-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, edit(bellyflop::scenario::PAPER_TOML)).unwrap();
+    path
+}
+
+#[test]
+fn json_has_the_documented_fields() {
+    let (code, stdout, _) = bellyflop(&["solve", "--json", "--nodes", "10"]);
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    assert_eq!(v["status"], "solved");
+    assert_eq!(v["nodes"], 10);
+    for key in ["tf_s", "final_mass_kg", "fuel_kg", "solve_time_ms"] {
+        assert!(v[key].as_f64().unwrap() > 0.0, "{key}");
+    }
+    assert!(v["iterations"].as_u64().unwrap() >= 1);
+    for key in [
+        "t_s",
+        "x_m",
+        "z_m",
+        "vx_mps",
+        "vz_mps",
+        "theta_rad",
+        "pitch_rate_radps",
+        "mass_kg",
+        "delta_rad",
+        "thrust_n",
+    ] {
+        assert_eq!(v[key].as_array().unwrap().len(), 11, "{key}");
+    }
+    let fuel = v["fuel_kg"].as_f64().unwrap();
+    let m = v["mass_kg"].as_array().unwrap();
+    let burnt = m[0].as_f64().unwrap() - m[10].as_f64().unwrap();
+    assert!((fuel - burnt).abs() < 1e-6);
+}
+
+#[test]
+fn toml_error_names_the_line_and_exits_2() {
+    let path = write_scenario("broken.toml", |t| {
+        t.replace("isp_s = 330.0", "isp_s = = 330.0")
+    });
+    let (code, stdout, stderr) = bellyflop(&["solve", "--scenario", path.to_str().unwrap()]);
+    assert_eq!(code, 2);
+    assert!(stdout.is_empty());
+    let line = bellyflop::scenario::PAPER_TOML
+        .lines()
+        .position(|l| l.starts_with("isp_s"))
+        .unwrap()
+        + 1;
+    assert!(stderr.contains(&format!("line {line}")), "{stderr}");
+}
+
+#[test]
+fn out_of_range_names_field_value_and_range() {
+    let (code, _, stderr) = bellyflop(&["solve", "--nodes", "3"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("discretization.nodes"), "{stderr}");
+    assert!(stderr.contains("4 to 100"), "{stderr}");
+
+    let path = write_scenario("negative.toml", |t| {
+        t.replace("mass_kg = 120000.0", "mass_kg = -5.0")
+    });
+    let (code, _, stderr) = bellyflop(&["solve", "--scenario", path.to_str().unwrap()]);
+    assert_eq!(code, 2);
+    assert!(
+        stderr.contains("initial.mass_kg") && stderr.contains("-5"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn missing_file_is_bad_input() {
+    let (code, _, stderr) = bellyflop(&["solve", "--scenario", "/nonexistent/none.toml"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("/nonexistent/none.toml"), "{stderr}");
+}
+
+#[test]
+fn infeasible_case_exits_3_with_reason() {
+    let path = write_scenario("low.toml", |t| t.replace("z_m = 600.0", "z_m = 100.0"));
+    let (code, stdout, _) = bellyflop(&["solve", "--json", "--scenario", path.to_str().unwrap()]);
+    assert_eq!(code, 3);
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["status"], "infeasible");
+    assert!(v["message"].as_str().unwrap().contains("no trajectory"));
+}
+
+#[test]
+fn iteration_limit_exits_4() {
+    let path = write_scenario("short.toml", |t| {
+        t.replace("max_iterations = 60", "max_iterations = 2")
+    });
+    let (code, stdout, _) = bellyflop(&["solve", "--json", "--scenario", path.to_str().unwrap()]);
+    assert_eq!(code, 4);
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["status"], "not_converged");
+}
