@@ -1,0 +1,482 @@
+#!/usr/bin/env python3
+"""Independent NLP reference solver for the starship-like flip-and-land problem.
+
+Chen, Ma, Wang, Su, "Online Trajectory Optimization Method for Large Attitude
+Flip Vertical Landing of the Starship-like Vehicle", Mathematics 2023, 11, 288.
+
+This file solves the paper's problems P1 and P2 *directly* as nonlinear programs
+(no convexification, no SCvx) so that the project's own solver can be checked
+against an independent answer:
+
+* P1 (Sec. 2, Eq. 1-7): states x, z, Vx, Vz, theta, w, m; controls T, delta.
+* P2 (Sec. 3.1, Eq. 8-10): P1 plus the gimbal angle delta as a state; the
+  controls are T and chi = d(delta)/dt.
+
+Both are transcribed with Legendre-Gauss-Radau (LGR) collocation, implemented
+here from scratch (Sec. 3.2, Eq. 24), and solved with CasADi + IPOPT.
+
+Nothing from the rest of the repository is imported: the only inputs are the
+scenario TOML file and the command-line options.
+
+Usage:
+    python nlp_reference.py --scenario ../../scenarios/paper.toml \
+        --nodes 20 --problem P2 [--repeat 5] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+import tomllib
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+from numpy.polynomial import legendre as npleg
+from scipy.integrate import solve_ivp
+
+
+# --------------------------------------------------------------------------
+# Scenario
+# --------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Scenario:
+    """All physical parameters in SI units, angles in radians."""
+
+    name: str
+    m_dry: float      # dry mass [kg]
+    l_s: float        # vehicle length [m]
+    r_s: float        # vehicle radius [m]
+    l_cg: float       # centre of mass position [m]
+    l_cp: float       # centre of pressure position [m]
+    T_max: float      # [N]
+    T_min: float      # [N]
+    isp: float        # [s]
+    delta_max: float  # [rad]
+    chi_max: float    # [rad/s]
+    C_LD: float       # lumped drag coefficient 1/2 rho c_D A [kg/m]
+    g0: float         # [m/s^2]
+    x0: np.ndarray    # initial [x, z, Vx, Vz, theta, w, m]
+    delta0: float     # initial gimbal angle [rad]
+    xf: np.ndarray    # terminal [x, z, Vx, Vz, theta, w]
+    nodes: int        # default N
+    tf_guess: float   # [s]
+    mf_guess: float   # [kg]
+
+
+def load_scenario(path: str) -> Scenario:
+    with open(path, "rb") as fh:
+        d = tomllib.load(fh)
+    v, e, i, f = d["vehicle"], d["environment"], d["initial"], d["terminal"]
+    disc = d["discretization"]
+    rad = math.radians
+    return Scenario(
+        name=d.get("name", path),
+        m_dry=v["dry_mass_kg"], l_s=v["length_m"], r_s=v["radius_m"],
+        l_cg=v["cg_m"], l_cp=v["cp_m"],
+        T_max=v["max_thrust_n"], T_min=v["min_thrust_n"], isp=v["isp_s"],
+        delta_max=rad(v["max_gimbal_deg"]), chi_max=rad(v["max_gimbal_rate_degps"]),
+        C_LD=v["drag_coefficient_kgpm"], g0=e["g0_mps2"],
+        x0=np.array([i["x_m"], i["z_m"], i["vx_mps"], i["vz_mps"],
+                     rad(i["theta_deg"]), rad(i["pitch_rate_degps"]), i["mass_kg"]]),
+        delta0=rad(i.get("gimbal_deg", 0.0)),
+        xf=np.array([f["x_m"], f["z_m"], f["vx_mps"], f["vz_mps"],
+                     rad(f["theta_deg"]), rad(f["pitch_rate_degps"])]),
+        nodes=int(disc["nodes"]), tf_guess=disc["tf_guess_s"],
+        mf_guess=disc["final_mass_guess_kg"],
+    )
+
+
+# --------------------------------------------------------------------------
+# Dynamics, Eq. (1)-(3) and (8)
+# --------------------------------------------------------------------------
+def p1_rhs(sc: Scenario, s, T, delta, sin, cos, sqrt):
+    """Right-hand side of Eq. (1) for state s = [x, z, Vx, Vz, theta, w, m].
+
+    Written once against generic math functions so that the same code builds
+    the CasADi SX graph (NLP) and evaluates with numpy (re-integration).
+    Returns a list of 7 derivatives.
+    """
+    _, _, vx, vz, th, w, m = (s[k] for k in range(7))
+    speed = sqrt(vx * vx + vz * vz)
+    Dx = -sc.C_LD * speed * vx                       # Eq. (2)
+    Dz = -sc.C_LD * speed * vz
+    J = m * (6.0 * sc.r_s ** 2 + sc.l_s ** 2) / 12.0  # Eq. (3)
+    M_T = -sc.l_cg * T * sin(delta)
+    M_D = -(sc.l_cp - sc.l_cg) * (Dx * cos(th) + Dz * sin(th))
+    return [
+        vx,
+        vz,
+        (-T * sin(th + delta) + Dx) / m,
+        (T * cos(th + delta) + Dz) / m - sc.g0,
+        w,
+        (M_T + M_D) / J,
+        -T / (sc.isp * sc.g0),
+    ]
+
+
+# --------------------------------------------------------------------------
+# Legendre-Gauss-Radau collocation (own implementation)
+# --------------------------------------------------------------------------
+def lgr_points(N: int) -> np.ndarray:
+    """N LGR points on [-1, 1): tau_1 = -1 and the roots of
+    P_{N-1} + P_N, sorted ascending. Roots are polished by Newton's method."""
+    c = np.zeros(N + 1)
+    c[N - 1] = 1.0
+    c[N] = 1.0
+    tau = np.sort(np.real(npleg.legroots(c)))
+    dc = npleg.legder(c)
+    for _ in range(5):  # Newton polish (the companion-matrix roots are ~1e-14 already)
+        step = npleg.legval(tau, c) / npleg.legval(tau, dc)
+        step[0] = 0.0   # tau_1 = -1 exactly
+        tau = tau - step
+    tau[0] = -1.0
+    return tau
+
+
+def lagrange_diff_matrix(tau_col: np.ndarray, tau_all: np.ndarray) -> np.ndarray:
+    """D[i, j] = dL_j/dtau (tau_col[i]) for the Lagrange basis L_j on tau_all.
+
+    Barycentric formula: with weights b_j = 1 / prod_{k != j}(tau_j - tau_k),
+    L_j'(tau_i) = (b_j / b_i) / (tau_i - tau_j) for i != j and
+    L_i'(tau_i) = -sum_{j != i} L_j'(tau_i). Requires tau_col subset of tau_all
+    (here the N collocation points are the first N of the N+1 support points).
+    """
+    n = len(tau_all)
+    b = np.array([1.0 / np.prod([tau_all[j] - tau_all[k] for k in range(n) if k != j])
+                  for j in range(n)])
+    D = np.zeros((len(tau_col), n))
+    for i, ti in enumerate(tau_col):
+        ii = int(np.argmin(np.abs(tau_all - ti)))
+        for j in range(n):
+            if j != ii:
+                D[i, j] = (b[j] / b[ii]) / (tau_all[ii] - tau_all[j])
+        D[i, ii] = -np.sum(D[i, :])
+    return D
+
+
+# --------------------------------------------------------------------------
+# NLP construction
+# --------------------------------------------------------------------------
+class LgrNlp:
+    """Builds the LGR-collocated NLP for P1 or P2 once; can be solved repeatedly.
+
+    Decision vector (all scaled to order one, physical = scale * scaled):
+        X  (N+1) x nx   states at tau_1..tau_N and tau_{N+1} = +1
+        U   N    x nu   controls at the N collocation points
+        tf              final time
+    """
+
+    def __init__(self, sc: Scenario, N: int, problem: str,
+                 tol: float = 1e-9, max_iter: int = 3000,
+                 tf_bounds: tuple[float, float] = (1.0, 100.0)):
+        if problem not in ("P1", "P2"):
+            raise ValueError("problem must be P1 or P2")
+        self.sc, self.N, self.problem = sc, N, problem
+        self.tau = lgr_points(N)
+        self.tau_all = np.append(self.tau, 1.0)
+        self.D = lagrange_diff_matrix(self.tau, self.tau_all)
+
+        # State/control layout and scale factors (physical = scale * scaled).
+        m0 = sc.x0[6]
+        #            x      z      Vx     Vz     theta  w    m
+        xs = [100.0, 100.0, 100.0, 100.0, 1.0, 1.0, m0]
+        if problem == "P1":
+            us = [sc.T_max, 1.0]                 # T, delta
+        else:
+            xs = xs + [1.0]                      # delta
+            us = [sc.T_max, 1.0]                 # T, chi
+        self.x_scale = np.array(xs)
+        self.u_scale = np.array(us)
+        self.tf_scale = 10.0
+        self.nx, self.nu = len(xs), len(us)
+
+        self._build(tol, max_iter, tf_bounds)
+
+    # -- helpers to pack/unpack the flat decision vector ----------------------
+    def _split(self, w):
+        N, nx, nu = self.N, self.nx, self.nu
+        nX = (N + 1) * nx
+        X = ca.reshape(w[:nX], nx, N + 1).T if isinstance(w, (ca.SX, ca.MX)) \
+            else np.reshape(w[:nX], (N + 1, nx))
+        U = ca.reshape(w[nX:nX + N * nu], nu, N).T if isinstance(w, (ca.SX, ca.MX)) \
+            else np.reshape(w[nX:nX + N * nu], (N, nu))
+        return X, U, w[nX + N * nu]
+
+    def _pack(self, X, U, tf):
+        return np.concatenate([np.asarray(X).ravel(), np.asarray(U).ravel(), [tf]])
+
+    def _rhs_sx(self, xk, uk):
+        """Scaled-in, physical-out dynamics at one node (SX)."""
+        sc = self.sc
+        xp = [xk[k] * self.x_scale[k] for k in range(self.nx)]
+        T = uk[0] * self.u_scale[0]
+        if self.problem == "P1":
+            delta = uk[1] * self.u_scale[1]
+        else:
+            delta = xp[7]
+        f = p1_rhs(sc, xp, T, delta, ca.sin, ca.cos, ca.sqrt)
+        if self.problem == "P2":
+            f.append(uk[1] * self.u_scale[1])   # delta_dot = chi
+        return f
+
+    def _build(self, tol, max_iter, tf_bounds):
+        sc, N, nx, nu = self.sc, self.N, self.nx, self.nu
+        t0 = time.perf_counter()
+
+        nw = (N + 1) * nx + N * nu + 1
+        w = ca.SX.sym("w", nw)
+        X, U, tf_s = self._split(w)
+        tf = tf_s * self.tf_scale
+
+        # Defects, Eq. (24): sum_j D_ij X_j - (tf/2) f(X_i, U_i) = 0, i = 1..N,
+        # expressed in scaled state units (each row divided by its state scale).
+        DX = ca.mtimes(ca.DM(self.D), X)          # N x nx, scaled
+        g = []
+        for i in range(N):
+            f = self._rhs_sx(X[i, :], U[i, :])
+            for k in range(nx):
+                g.append(DX[i, k] - 0.5 * tf * f[k] / self.x_scale[k])
+        g = ca.vertcat(*g)
+
+        # Objective, Eq. (6): maximize m(tf)  ->  minimize -m(tf)/m0 (scaled).
+        J = -X[N, 6]
+
+        # Variable bounds (scaled).
+        inf = np.inf
+        lbX = np.full((N + 1, nx), -inf)
+        ubX = np.full((N + 1, nx), inf)
+        # Initial state fixed (Eq. 4). For P2 the initial delta too.
+        x0_full = list(sc.x0) + ([sc.delta0] if self.problem == "P2" else [])
+        lbX[0, :] = ubX[0, :] = np.array(x0_full) / self.x_scale
+        # Terminal x, z, Vx, Vz, theta, w fixed (Eq. 4).
+        lbX[N, :6] = ubX[N, :6] = sc.xf / self.x_scale[:6]
+        # Mass: m >= m_dry at every node (at t_f this is Eq. 4; elsewhere it is
+        # implied because m is monotonically decreasing) and m <= m0.
+        lbX[1:, 6] = sc.m_dry / self.x_scale[6]
+        ubX[1:, 6] = sc.x0[6] / self.x_scale[6]
+        if self.problem == "P2":
+            lbX[1:, 7] = -sc.delta_max / self.x_scale[7]   # Eq. (5) on the delta state
+            ubX[1:, 7] = sc.delta_max / self.x_scale[7]
+        lbU = np.empty((N, nu))
+        ubU = np.empty((N, nu))
+        lbU[:, 0], ubU[:, 0] = sc.T_min / self.u_scale[0], sc.T_max / self.u_scale[0]
+        lim = sc.delta_max if self.problem == "P1" else sc.chi_max   # Eq. (5) / (9)
+        lbU[:, 1], ubU[:, 1] = -lim / self.u_scale[1], lim / self.u_scale[1]
+        self.lbw = self._pack(lbX, lbU, tf_bounds[0] / self.tf_scale)
+        self.ubw = self._pack(ubX, ubU, tf_bounds[1] / self.tf_scale)
+        self.lbg = np.zeros(g.shape[0])
+        self.ubg = np.zeros(g.shape[0])
+
+        opts = {
+            "print_time": False,
+            "ipopt.print_level": 0,
+            "ipopt.sb": "yes",            # no IPOPT banner
+            "ipopt.tol": tol,
+            "ipopt.max_iter": max_iter,
+        }
+        self.solver = ca.nlpsol("lgr", "ipopt", {"x": w, "f": J, "g": g}, opts)
+        self.build_time = time.perf_counter() - t0
+
+    # -- initial guess ---------------------------------------------------------
+    def initial_guess(self) -> np.ndarray:
+        """Straight line between initial and terminal states in tau, mass from
+        m0 to final_mass_guess_kg, delta from delta0 to 0, T mid-range, chi 0."""
+        sc, N = self.sc, self.N
+        s = (self.tau_all + 1.0) / 2.0                   # 0 .. 1 at the N+1 nodes
+        a = np.append(sc.x0, sc.delta0)                   # 8 start values
+        b = np.append(np.append(sc.xf, sc.mf_guess), 0.0)  # 8 end values
+        Xp = a[None, :] + s[:, None] * (b - a)[None, :]
+        X = Xp[:, :self.nx] / self.x_scale
+        U = np.empty((N, self.nu))
+        U[:, 0] = 0.5 * (sc.T_min + sc.T_max) / self.u_scale[0]
+        if self.problem == "P1":
+            U[:, 1] = Xp[:N, 7] / self.u_scale[1]       # delta: delta0 -> 0
+        else:
+            U[:, 1] = 0.0                               # chi
+        return self._pack(X, U, sc.tf_guess / self.tf_scale)
+
+    # -- solve -----------------------------------------------------------------
+    def solve(self, w0: np.ndarray):
+        t0 = time.perf_counter()
+        sol = self.solver(x0=w0, lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
+        wall = time.perf_counter() - t0
+        stats = self.solver.stats()
+        return sol, stats, wall
+
+    def unpack_physical(self, wopt: np.ndarray):
+        X, U, tf_s = self._split(np.asarray(wopt).ravel())
+        return X * self.x_scale, U * self.u_scale, float(tf_s) * self.tf_scale
+
+
+# --------------------------------------------------------------------------
+# Re-integration of the nonlinear dynamics with the optimal controls
+# --------------------------------------------------------------------------
+def reintegrate(sc: Scenario, problem: str, t_col, U, X, tf, p2_delta="state",
+                rtol=1e-10, atol=1e-10):
+    """Integrate the nonlinear dynamics from the initial state over [0, tf].
+
+    Controls are interpolated linearly in time between the N collocation
+    times t_1 = 0 .. t_N and held at their last value from t_N to tf.
+
+    P1: u = (T, delta) interpolated; Eq. (1) integrated.
+    P2, p2_delta == "state" (default): T interpolated as above and delta is the
+        optimal delta *state* interpolated linearly over all N+1 nodes
+        (including tf); Eq. (1) integrated.
+    P2, p2_delta == "chi": u = (T, chi) interpolated and the augmented
+        dynamics Eq. (8) are integrated from delta(0) = delta0, i.e. delta is
+        the integral of the interpolated chi. The optimal chi is bang-bang
+        (it sits on +-chi_max during the flip and the final flare), so its
+        linear interpolation integrates to a delta that drifts from the
+        collocated delta by ~0.01-0.1 rad; the open-loop pitch dynamics
+        amplify this into tens of metres of landing error. That is why
+        "state" is the default.
+
+    Integration is done segment by segment between consecutive knots (where
+    the interpolated controls have kinks) with DOP853.
+    Returns the final state [x, z, Vx, Vz, theta, w, m(, delta)].
+    """
+    T_k = U[:, 0]
+    knots = np.append(t_col, tf)          # t_1 .. t_N, tf
+    # Control values on the knots (hold last value on [t_N, tf]).
+    T_knots = np.append(T_k, T_k[-1])
+    if problem == "P1":
+        d_knots = np.append(U[:, 1], U[-1, 1])
+        mode = "delta"
+    elif p2_delta == "chi":
+        d_knots = np.append(U[:, 1], U[-1, 1])  # chi values
+        mode = "chi"
+    else:
+        d_knots = X[:, 7]                       # delta state at all N+1 nodes
+        mode = "delta"
+
+    def make_rhs(ta, tb, Ta, Tb, da, db):
+        h = tb - ta
+
+        def rhs(t, s):
+            a = (t - ta) / h if h > 0 else 0.0
+            T = Ta + a * (Tb - Ta)
+            d = da + a * (db - da)
+            if mode == "delta":
+                return p1_rhs(sc, s, T, d, math.sin, math.cos, math.sqrt)
+            f = p1_rhs(sc, s, T, s[7], math.sin, math.cos, math.sqrt)
+            f.append(d)                          # delta_dot = chi
+            return f
+        return rhs
+
+    s = list(sc.x0) + ([sc.delta0] if mode == "chi" else [])
+    for k in range(len(knots) - 1):
+        ta, tb = knots[k], knots[k + 1]
+        if tb <= ta:
+            continue
+        r = solve_ivp(make_rhs(ta, tb, T_knots[k], T_knots[k + 1],
+                               d_knots[k], d_knots[k + 1]),
+                      (ta, tb), s, method="DOP853", rtol=rtol, atol=atol)
+        if not r.success:
+            raise RuntimeError(f"re-integration failed: {r.message}")
+        s = list(r.y[:, -1])
+    return np.array(s)
+
+
+# --------------------------------------------------------------------------
+# CLI
+# --------------------------------------------------------------------------
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scenario", required=True, help="scenario TOML file")
+    ap.add_argument("--nodes", type=int, default=None,
+                    help="number of LGR collocation points N (default: scenario)")
+    ap.add_argument("--problem", choices=["P1", "P2"], default="P2")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="solve K times from the same guess; report median solve time")
+    ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap.add_argument("--tol", type=float, default=1e-9, help="IPOPT tol")
+    ap.add_argument("--max-iter", type=int, default=3000, help="IPOPT max_iter")
+    ap.add_argument("--p2-delta", choices=["state", "chi"], default="state",
+                    help="P2 re-integration: interpolate the delta state linearly "
+                         "(default) or integrate the linearly interpolated chi")
+    args = ap.parse_args(argv)
+
+    sc = load_scenario(args.scenario)
+    N = args.nodes or sc.nodes
+    if N < 2:
+        ap.error("--nodes must be >= 2")
+
+    nlp = LgrNlp(sc, N, args.problem, tol=args.tol, max_iter=args.max_iter)
+    w0 = nlp.initial_guess()
+
+    walls, sol, stats = [], None, None
+    for _ in range(max(1, args.repeat)):
+        sol, stats, wall = nlp.solve(w0)
+        walls.append(wall)
+    wopt = np.asarray(sol["x"]).ravel()
+    X, U, tf = nlp.unpack_physical(wopt)
+    t_nodes = (nlp.tau_all + 1.0) * tf / 2.0
+    max_defect = float(np.max(np.abs(np.asarray(sol["g"])))) if sol["g"].numel() else 0.0
+
+    sf = reintegrate(sc, args.problem, t_nodes[:N], U, X, tf, p2_delta=args.p2_delta)
+    pos_err = float(np.hypot(sf[0] - sc.xf[0], sf[1] - sc.xf[1]))
+    vel_err = float(np.hypot(sf[2] - sc.xf[2], sf[3] - sc.xf[3]))
+
+    delta = U[:, 1] if args.problem == "P1" else X[:, 7]
+    out = {
+        "problem": args.problem,
+        "nodes": N,
+        "scenario": sc.name,
+        "status": stats["return_status"],
+        "success": bool(stats["success"]),
+        "tf_s": tf,
+        "final_mass_kg": float(X[N, 6]),
+        "ipopt_iterations": int(stats["iter_count"]),
+        "solve_time_ms": 1e3 * float(np.median(walls)),
+        "build_time_ms": 1e3 * nlp.build_time,
+        "repeat": len(walls),
+        "max_scaled_defect": max_defect,
+        "landing_error": {
+            "position_m": pos_err,
+            "velocity_mps": vel_err,
+            "theta_rad": float(sf[4] - sc.xf[4]),
+            "mass_kg": float(sf[6] - X[N, 6]),
+            "p2_delta_mode": args.p2_delta if args.problem == "P2" else None,
+        },
+        # State arrays have N+1 entries at t_s (the last one is t_f). Controls
+        # (thrust_n, and delta_rad for P1, gimbal_rate_radps for P2) have N
+        # entries at the collocation times t_s[:N]. For P2 delta_rad is the
+        # state (N+1 entries).
+        "t_s": t_nodes.tolist(),
+        "x_m": X[:, 0].tolist(),
+        "z_m": X[:, 1].tolist(),
+        "vx_mps": X[:, 2].tolist(),
+        "vz_mps": X[:, 3].tolist(),
+        "theta_rad": X[:, 4].tolist(),
+        "pitch_rate_radps": X[:, 5].tolist(),
+        "mass_kg": X[:, 6].tolist(),
+        "thrust_n": U[:, 0].tolist(),
+        "delta_rad": delta.tolist(),
+    }
+    if args.problem == "P2":
+        out["gimbal_rate_radps"] = U[:, 1].tolist()
+
+    if args.json:
+        json.dump(out, sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        print(f"{args.problem}  N={N}  scenario={sc.name}")
+        print(f"  IPOPT: {out['status']} ({out['ipopt_iterations']} iterations), "
+              f"max scaled defect {max_defect:.2e}")
+        print(f"  t_f = {tf:.4f} s   m(t_f) = {out['final_mass_kg']:.1f} kg")
+        print(f"  build {out['build_time_ms']:.1f} ms, solve {out['solve_time_ms']:.1f} ms "
+              f"(median of {len(walls)})")
+        print(f"  re-integrated landing error: position {pos_err:.4f} m, "
+              f"velocity {vel_err:.4f} m/s")
+        print("  thrust [kN] at collocation points: "
+              + " ".join(f"{v / 1e3:.0f}" for v in U[:, 0]))
+    return 0 if out["success"] else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
