@@ -596,7 +596,7 @@ impl Transcription {
         }
     }
 
-    /// Solve one subproblem with Clarabel. `None` if the solver fails outright.
+    /// Solve one subproblem with Clarabel; an error names the solver status when it fails.
     pub fn solve(&self, data: &ConicData) -> Result<SubproblemResult, String> {
         let l = self.layout;
         let settings = DefaultSettings {
