@@ -1,8 +1,8 @@
 //! Iteration counts and optima over N, t_f guesses and dispersed initial states.
 //!
-//! `cargo run --release -p bellyflop --example convergence`
+//! `cargo run --release -p bellyflop --example convergence [exact|paper|vector ...]`
 use bellyflop::scvx::Silent;
-use bellyflop::Scenario;
+use bellyflop::{Formulation, Scenario};
 
 fn report(label: &str, s: &Scenario) {
     let sol = bellyflop::solve(s, &mut Silent);
@@ -19,12 +19,26 @@ fn report(label: &str, s: &Scenario) {
 }
 
 fn main() {
-    for n in [10, 15, 20, 30, 40] {
-        for tf in [8.0, 12.0, 16.0, 20.0] {
-            let mut s = Scenario::paper();
-            s.discretization.nodes = n;
-            s.discretization.tf_guess_s = tf;
-            report(&format!("paper N={n} tf_guess={tf}"), &s);
+    let mut forms: Vec<Formulation> = std::env::args()
+        .skip(1)
+        .map(|a| match a.as_str() {
+            "paper" => Formulation::Paper,
+            "vector" => Formulation::Vector,
+            _ => Formulation::Exact,
+        })
+        .collect();
+    if forms.is_empty() {
+        forms = vec![Formulation::Exact, Formulation::Paper];
+    }
+    for &form in &forms {
+        for n in [10, 15, 20, 30, 40] {
+            for tf in [8.0, 12.0, 16.0, 20.0] {
+                let mut s = Scenario::paper();
+                s.solver.formulation = form;
+                s.discretization.nodes = n;
+                s.discretization.tf_guess_s = tf;
+                report(&format!("{form:?} paper case N={n} tf_guess={tf}"), &s);
+            }
         }
     }
     // x0, z0, vx0, vz0, theta0 [deg], m0
@@ -36,7 +50,7 @@ fn main() {
         [-120.0, 750.0, -8.0, -75.0, 92.0, 112_000.0],
         [60.0, 700.0, 5.0, -88.0, 82.0, 124_000.0],
     ] {
-        for form in [bellyflop::Formulation::Exact, bellyflop::Formulation::Paper] {
+        for &form in &forms {
             let mut s = Scenario::paper();
             s.initial.x_m = d[0];
             s.initial.z_m = d[1];

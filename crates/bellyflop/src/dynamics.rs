@@ -88,7 +88,7 @@ impl Model {
 /// Control dimension of a formulation.
 pub fn control_dim(form: Formulation) -> usize {
     match form {
-        Formulation::Paper => 4,
+        Formulation::Paper | Formulation::Vector => 4,
         Formulation::Exact => 2,
     }
 }
@@ -143,7 +143,7 @@ pub fn rhs_lcvx<D: DualNum<Primitive = f64> + Copy>(
 ) -> [D; NX] {
     let [_, _, vx, vz, theta, w, omega, delta] = *x;
     let (txm, tzm, sigma, chi) = match form {
-        Formulation::Paper => (u[0], u[1], u[2], u[3]),
+        Formulation::Paper | Formulation::Vector => (u[0], u[1], u[2], u[3]),
         Formulation::Exact => {
             let (sin_phi, cos_phi) = (theta + delta).sin_cos();
             (u[0] * sin_phi, u[0] * cos_phi, u[0], u[1])
@@ -206,7 +206,7 @@ pub fn linearize(model: &Model, form: Formulation, x: &[f64; NX], u: &[f64]) -> 
 /// Thrust-per-mass vector (Txm, Tzm) and σ of a control in either formulation.
 pub fn thrust_components(form: Formulation, x: &[f64; NX], u: &[f64]) -> (f64, f64, f64) {
     match form {
-        Formulation::Paper => (u[0], u[1], u[2]),
+        Formulation::Paper | Formulation::Vector => (u[0], u[1], u[2]),
         Formulation::Exact => {
             let phi = x[ix::THETA] + x[ix::DELTA];
             (u[0] * phi.sin(), u[0] * phi.cos(), u[0])

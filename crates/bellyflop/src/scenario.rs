@@ -84,6 +84,11 @@ pub enum Formulation {
     /// The paper's P4 (Eq. 26–30): controls Txm, Tzm, σ, χ with the lossless
     /// cone ‖(Txm, Tzm)‖ ≤ σ and the linearized direction constraint (Eq. 27).
     Paper,
+    /// Thrust-vector form: the paper's controls (Txm, Tzm, σ, χ) and cone, with
+    /// the thrust forced onto the nozzle axis by two linearized equalities,
+    /// Txm·cos φ − Tzm·sin φ = 0 and Txm·sin φ + Tzm·cos φ = σ (φ = θ + δ),
+    /// under virtual control. Physically exact at convergence.
+    Vector,
 }
 
 /// Discretization: LGR collocation with N points (Section 3.2).

@@ -58,7 +58,7 @@ pub fn straight_line(tr: &Transcription, tf_s: f64, final_mass_kg: f64) -> Traje
             let phi = x[i][ix::THETA] + x[i][ix::DELTA];
             let mut u = [0.0; NU_MAX];
             match tr.form {
-                Formulation::Paper => {
+                Formulation::Paper | Formulation::Vector => {
                     u[0] = sigma * phi.sin();
                     u[1] = sigma * phi.cos();
                     u[2] = sigma;

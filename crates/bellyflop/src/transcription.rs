@@ -32,7 +32,9 @@ pub struct Trajectory {
 pub struct Layout {
     pub n: usize,
     pub nu: usize,
-    pub direction_rows: bool,
+    /// Linearized path equalities per node with virtual control:
+    /// 0 (exact), 1 (paper: direction, Eq. 27), 2 (vector: direction and magnitude).
+    pub path_rows: usize,
 }
 
 impl Layout {
@@ -59,16 +61,13 @@ impl Layout {
     pub fn buffer(&self, i: usize, side: usize) -> usize {
         self.n_primal() + 2 * NX * self.n + 2 * i + side
     }
-    /// Virtual control on the direction constraint: positive (side 0) or negative part.
-    pub fn dir(&self, i: usize, side: usize) -> usize {
-        debug_assert!(self.direction_rows);
-        self.n_primal() + 2 * NX * self.n + 2 * self.n + 2 * i + side
+    /// Virtual control on path equality `r` at node i: positive (side 0) or negative part.
+    pub fn dir(&self, i: usize, r: usize, side: usize) -> usize {
+        debug_assert!(r < self.path_rows);
+        self.n_primal() + 2 * NX * self.n + 2 * self.n + 2 * (i * self.path_rows + r) + side
     }
     pub fn n_var(&self) -> usize {
-        self.n_primal()
-            + 2 * NX * self.n
-            + 2 * self.n
-            + if self.direction_rows { 2 * self.n } else { 0 }
+        self.n_primal() + 2 * NX * self.n + 2 * self.n + 2 * self.path_rows * self.n
     }
 }
 
@@ -98,7 +97,7 @@ impl Scaling {
         let accel = model.max_thrust_n / i.mass_kg;
         let sigma_scale = accel;
         let u_scale = match form {
-            Formulation::Paper => [
+            Formulation::Paper | Formulation::Vector => [
                 sigma_scale,
                 sigma_scale,
                 sigma_scale,
@@ -227,7 +226,11 @@ impl Transcription {
         let layout = Layout {
             n: nodes,
             nu: dynamics::control_dim(form),
-            direction_rows: form == Formulation::Paper,
+            path_rows: match form {
+                Formulation::Exact => 0,
+                Formulation::Paper => 1,
+                Formulation::Vector => 2,
+            },
         };
         let scaling = Scaling::new(s, &model, form);
         let i = &s.initial;
@@ -280,7 +283,7 @@ impl Transcription {
         lo[l.x(l.n, ix::OMEGA)] =
             (self.model.dry_mass_kg.ln() - sc.x_offset[ix::OMEGA]) / sc.x_scale[ix::OMEGA];
         let chi = l.nu - 1;
-        let sigma = if self.form == Formulation::Paper {
+        let sigma = if self.form != Formulation::Exact {
             2
         } else {
             0
@@ -300,7 +303,7 @@ impl Transcription {
     /// Index of σ in the control vector.
     pub fn sigma_index(&self) -> usize {
         match self.form {
-            Formulation::Paper => 2,
+            Formulation::Paper | Formulation::Vector => 2,
             Formulation::Exact => 0,
         }
     }
@@ -390,9 +393,16 @@ impl Transcription {
             let sigma = t.u[i][si];
             total += (self.model.min_thrust_n * inv_m - sigma).max(0.0) / s_sigma;
             total += (sigma - self.model.max_thrust_n * inv_m).max(0.0) / s_sigma;
-            if self.layout.direction_rows {
-                let (phi, _, _) = self.direction(&t.x[i], &t.u[i]);
-                total += wrap_angle(phi - t.x[i][ix::THETA] - t.x[i][ix::DELTA]).abs();
+            match self.form {
+                Formulation::Exact => {}
+                Formulation::Paper => {
+                    let (phi, _, _) = self.direction(&t.x[i], &t.u[i]);
+                    total += wrap_angle(phi - t.x[i][ix::THETA] - t.x[i][ix::DELTA]).abs();
+                }
+                Formulation::Vector => {
+                    let (g1, g2) = vector_residuals(&t.x[i], &t.u[i]);
+                    total += (g1.abs() + g2.abs()) / s_sigma;
+                }
             }
         }
         total
@@ -480,7 +490,33 @@ impl Transcription {
             );
         }
         // Paper formulation: linearized direction constraint (Eq. 27).
-        if l.direction_rows {
+        if self.form == Formulation::Vector {
+            // T ∥ nozzle axis and |T| = σ, linearized in (T, σ, φ = θ + δ).
+            let s_t = sc.u_scale[0];
+            let offs = sc.x_offset[ix::THETA] + sc.x_offset[ix::DELTA];
+            for i in 0..n {
+                let (x, u) = (&reference.x[i], &reference.u[i]);
+                let phi = x[ix::THETA] + x[ix::DELTA];
+                let (sp, cp) = phi.sin_cos();
+                let (g1, _) = vector_residuals(x, u);
+                let along = u[0] * sp + u[1] * cp;
+                let rows: [(&[(usize, f64)], f64); 2] = [
+                    (&[(l.u(i, 0), cp), (l.u(i, 1), -sp)], -along),
+                    (&[(l.u(i, 2), 1.0), (l.u(i, 0), -sp), (l.u(i, 1), -cp)], -g1),
+                ];
+                for (r, (t_entries, c_phi)) in rows.into_iter().enumerate() {
+                    for &(j, v) in t_entries {
+                        eq.entry(j, v);
+                    }
+                    eq.entry(l.x(i, ix::THETA), c_phi * sc.x_scale[ix::THETA] / s_t);
+                    eq.entry(l.x(i, ix::DELTA), c_phi * sc.x_scale[ix::DELTA] / s_t);
+                    eq.entry(l.dir(i, r, 0), 1.0);
+                    eq.entry(l.dir(i, r, 1), -1.0);
+                    eq.finish_row((c_phi * phi - c_phi * offs) / s_t);
+                }
+            }
+        }
+        if self.form == Formulation::Paper {
             for i in 0..n {
                 let (phi, kx, kz) = self.direction(&reference.x[i], &reference.u[i]);
                 let u = &reference.u[i];
@@ -490,8 +526,8 @@ impl Transcription {
                         (l.u(i, 1), kz * sc.u_scale[1]),
                         (l.x(i, ix::THETA), -sc.x_scale[ix::THETA]),
                         (l.x(i, ix::DELTA), -sc.x_scale[ix::DELTA]),
-                        (l.dir(i, 0), 1.0),
-                        (l.dir(i, 1), -1.0),
+                        (l.dir(i, 0, 0), 1.0),
+                        (l.dir(i, 0, 1), -1.0),
                     ],
                     -phi + kx * u[0] + kz * u[1] + sc.x_offset[ix::THETA] + sc.x_offset[ix::DELTA],
                 );
@@ -536,6 +572,9 @@ impl Transcription {
         }
 
         let mut soc = Rows::new();
+        // The vector formulation has no cone: its linearized equalities already
+        // fix |T| = σ, and the cone would forbid the first-order rotation of T
+        // (a tangent step lengthens T by σ·Δφ²/2), stalling the iteration.
         if self.form == Formulation::Paper {
             // ‖(Txm, Tzm)‖ ≤ σ (Eq. 19); the three share one scale.
             for i in 0..n {
@@ -619,8 +658,8 @@ impl Transcription {
                 vc = vc.max((sol.x[l.vc_pos(i, c)] - sol.x[l.vc_neg(i, c)]).abs());
             }
             vc = vc.max(sol.x[l.buffer(i, 0)]).max(sol.x[l.buffer(i, 1)]);
-            if l.direction_rows {
-                vc = vc.max((sol.x[l.dir(i, 0)] - sol.x[l.dir(i, 1)]).abs());
+            for r in 0..l.path_rows {
+                vc = vc.max((sol.x[l.dir(i, r, 0)] - sol.x[l.dir(i, r, 1)]).abs());
             }
         }
         Ok(SubproblemResult {
@@ -632,6 +671,14 @@ impl Transcription {
             status: sol.status,
         })
     }
+}
+
+/// Residuals of the vector formulation's path equalities (φ = θ + δ):
+/// g1 = Txm·cos φ − Tzm·sin φ (thrust off the nozzle axis) and
+/// g2 = σ − (Txm·sin φ + Tzm·cos φ) (thrust magnitude short of σ).
+pub fn vector_residuals(x: &[f64; NX], u: &[f64; NU_MAX]) -> (f64, f64) {
+    let (sp, cp) = (x[ix::THETA] + x[ix::DELTA]).sin_cos();
+    (u[0] * cp - u[1] * sp, u[2] - u[0] * sp - u[1] * cp)
 }
 
 /// Wrap an angle to (−π, π].
