@@ -107,7 +107,7 @@ fn infeasible_case_exits_3_with_reason() {
 #[test]
 fn iteration_limit_exits_4() {
     let path = write_scenario("short.toml", |t| {
-        t.replace("max_iterations = 60", "max_iterations = 2")
+        t.replace("max_iterations = 100", "max_iterations = 2")
     });
     let (code, stdout, _) = bellyflop(&["solve", "--json", "--scenario", path.to_str().unwrap()]);
     assert_eq!(code, 4);

@@ -141,7 +141,7 @@ impl Default for SolverSettings {
     fn default() -> Self {
         Self {
             formulation: Formulation::Exact,
-            max_iterations: 60,
+            max_iterations: 100,
             step_tolerance: 1e-3,
             defect_tolerance: 1e-7,
             virtual_control_tolerance: 1e-7,

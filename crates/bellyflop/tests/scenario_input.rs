@@ -123,7 +123,7 @@ fn paper_scenario_parses_and_validates_with_table_1_values() {
 
     assert_eq!(s.discretization.nodes, 20);
     assert_eq!(s.solver.formulation, Formulation::Exact);
-    assert_eq!(s.solver.max_iterations, 60);
+    assert_eq!(s.solver.max_iterations, 100);
 }
 
 #[test]
@@ -340,8 +340,8 @@ fn other_contradictions_are_inconsistent() {
         ),
         ("z_m = 600.0", "z_m = 0.0", "initial.z_m"),
         (
-            "max_iterations = 60",
-            "max_iterations = 60\nrho0 = 0.3",
+            "max_iterations = 100",
+            "max_iterations = 100\nrho0 = 0.3",
             "solver.rho1",
         ),
     ];
