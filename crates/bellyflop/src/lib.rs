@@ -6,9 +6,11 @@
 //! - [`radau`]: LGR nodes, weights, differentiation and interpolation;
 //! - [`transcription`]: the convex subproblem P4 as conic data for Clarabel;
 //! - [`scvx`]: the successive-convexification driver loop;
-//! - [`solution`]: status, physical trajectory, checks and history.
+//! - [`solution`]: status, physical trajectory, checks and history;
+//! - [`propagate`]: landing precision by re-integrating the nonlinear model.
 pub mod dynamics;
 pub mod error;
+pub mod propagate;
 pub mod radau;
 pub mod scenario;
 pub mod scvx;
