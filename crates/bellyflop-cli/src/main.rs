@@ -7,6 +7,13 @@ use bellyflop::solution::IterationRecord;
 use bellyflop::{Formulation, Scenario, Solution};
 use clap::{Parser, Subcommand, ValueEnum};
 
+mod init;
+mod landing;
+mod output;
+mod plot;
+mod sample;
+mod sweep;
+
 #[derive(Parser)]
 #[command(
     name = "bellyflop",
@@ -22,12 +29,19 @@ struct Cli {
 enum Command {
     /// Solve one landing problem (the paper's case by default).
     Solve(SolveArgs),
+    /// Write a commented scenario TOML (the paper's case) with every
+    /// parameter, its unit and its allowed range.
+    Init(init::InitArgs),
+    /// Solve at several N and tabulate t_f, final mass, landing precision,
+    /// iterations and solve time (the paper's Tables 3-5).
+    Sweep(sweep::SweepArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
 enum FormulationArg {
     Exact,
     Paper,
+    Vector,
 }
 
 #[derive(clap::Args, Default)]
@@ -47,6 +61,12 @@ struct SolveArgs {
     /// Do not print per-iteration progress on stderr.
     #[arg(long)]
     quiet: bool,
+    /// Interpolation of the controls when re-propagating for the landing error.
+    #[arg(long, value_enum, default_value = "pchip")]
+    interpolation: landing::InterpolationArg,
+    /// Write trajectory.csv, solution.json and the plots (SVG and PNG) into DIR.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
 }
 
 /// Exit code for bad input (before any solve).
@@ -56,6 +76,8 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command.unwrap_or(Command::Solve(SolveArgs::default())) {
         Command::Solve(args) => solve(args),
+        Command::Init(args) => init::run(&args),
+        Command::Sweep(args) => sweep::run(&args),
     }
 }
 
@@ -71,6 +93,7 @@ fn load(args: &SolveArgs) -> Result<Scenario, bellyflop::InputError> {
         scenario.solver.formulation = match f {
             FormulationArg::Exact => Formulation::Exact,
             FormulationArg::Paper => Formulation::Paper,
+            FormulationArg::Vector => Formulation::Vector,
         };
     }
     scenario.validate()?;
@@ -85,6 +108,12 @@ fn solve(args: SolveArgs) -> ExitCode {
             return ExitCode::from(EXIT_BAD_INPUT);
         }
     };
+    if let Some(dir) = &args.out {
+        if let Err(e) = output::prepare(dir) {
+            eprintln!("error: --out {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    }
     let quiet = args.quiet || args.json;
     let mut progress = |r: &IterationRecord| {
         if !quiet {
@@ -104,10 +133,23 @@ fn solve(args: SolveArgs) -> ExitCode {
         }
     };
     let solution = bellyflop::solve(&scenario, &mut progress);
+    let propagation = landing::propagate(&scenario, &solution, args.interpolation);
+    // One JSON object: printed by --json, and written as solution.json by --out.
+    let mut v = solution.to_json();
+    landing::add_to_json(&mut v, &propagation);
     if args.json {
-        println!("{}", solution.to_json());
+        println!("{v}");
     } else {
         print_summary(&scenario, &solution);
+        landing::print_summary(&propagation, solution.final_mass_kg);
+    }
+    if let Some(dir) = &args.out {
+        let propagated = propagation.as_ref().ok();
+        if let Err(code) =
+            output::write_and_report(dir, &scenario, &solution, &v, propagated, quiet)
+        {
+            return code;
+        }
     }
     ExitCode::from(solution.status.exit_code() as u8)
 }

@@ -1,0 +1,484 @@
+//! `bellyflop init [FILE]`: a commented scenario TOML with every parameter,
+//! its unit and its allowed range, filled with the paper's case.
+//!
+//! The values come from [`Scenario::paper`] through serde, so every field of
+//! the scenario is written, in full precision (`{:?}` of f64 is the shortest
+//! text that reads back to the same number). The comments come from [`DOCS`];
+//! a unit test checks that its ranges agree with the library's validation.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use bellyflop::Scenario;
+use serde_json::Value;
+
+/// Arguments of `bellyflop init`.
+#[derive(clap::Args)]
+pub struct InitArgs {
+    /// Where to write the scenario; stdout when omitted.
+    file: Option<PathBuf>,
+    /// Overwrite FILE if it exists.
+    #[arg(long)]
+    force: bool,
+}
+
+/// Run `bellyflop init`: exit 0 on success, 2 if FILE exists (without
+/// `--force`), 1 if it cannot be written.
+pub fn run(args: &InitArgs) -> ExitCode {
+    let text = template(&Scenario::paper());
+    let Some(path) = &args.file else {
+        print!("{text}");
+        return ExitCode::SUCCESS;
+    };
+    if path.exists() && !args.force {
+        eprintln!(
+            "error: {} exists; pass --force to overwrite it",
+            path.display()
+        );
+        return ExitCode::from(2);
+    }
+    match std::fs::write(path, text) {
+        Ok(()) => {
+            eprintln!("wrote {}", path.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {}: {e}", path.display());
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// What values a field accepts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Allowed {
+    /// A real number in an interval; `lo_open`/`hi_open` exclude the ends.
+    Real {
+        lo: f64,
+        hi: f64,
+        lo_open: bool,
+        hi_open: bool,
+    },
+    /// An integer from `lo` to `hi` inclusive.
+    Count { lo: u64, hi: u64 },
+    /// One of these strings.
+    Choice(&'static [&'static str]),
+    /// Any text.
+    Text,
+}
+
+/// The documentation of one scenario field.
+#[derive(Debug, Clone, Copy)]
+pub struct Doc {
+    /// TOML table (`""` for the top level).
+    pub table: &'static str,
+    pub key: &'static str,
+    /// Unit, or `""` for a pure number.
+    pub unit: &'static str,
+    pub allowed: Allowed,
+    /// What it is, and any condition that involves other fields.
+    pub text: &'static str,
+}
+
+const fn real(lo: f64, hi: f64, lo_open: bool, hi_open: bool) -> Allowed {
+    Allowed::Real {
+        lo,
+        hi,
+        lo_open,
+        hi_open,
+    }
+}
+/// `[lo, hi]`
+const fn closed(lo: f64, hi: f64) -> Allowed {
+    real(lo, hi, false, false)
+}
+/// `(lo, hi]`
+const fn open_closed(lo: f64, hi: f64) -> Allowed {
+    real(lo, hi, true, false)
+}
+/// `(lo, hi)`
+const fn open(lo: f64, hi: f64) -> Allowed {
+    real(lo, hi, true, true)
+}
+/// `[lo, hi)`
+const fn closed_open(lo: f64, hi: f64) -> Allowed {
+    real(lo, hi, false, true)
+}
+
+const MASS: Allowed = open_closed(0.0, 1e7);
+const LENGTH: Allowed = open_closed(0.0, 1000.0);
+const POS_X: Allowed = closed(-1e5, 1e5);
+const POS_Z: Allowed = closed(0.0, 1e5);
+const SPEED: Allowed = closed(-1e4, 1e4);
+const THETA: Allowed = closed(-180.0, 180.0);
+const PITCH_RATE: Allowed = closed(-360.0, 360.0);
+const TOLERANCE: Allowed = open(0.0, 1.0);
+const TRUST_RADIUS: Allowed = open_closed(0.0, 1e6);
+const RHO: Allowed = closed_open(0.0, 1.0);
+const FACTOR: Allowed = open_closed(1.0, 100.0);
+
+/// The accepted values of `solver.formulation`.
+pub const FORMULATIONS: &[&str] = &["exact", "paper", "vector"];
+
+macro_rules! doc {
+    ($table:literal, $key:literal, $unit:literal, $allowed:expr, $text:literal) => {
+        Doc {
+            table: $table,
+            key: $key,
+            unit: $unit,
+            allowed: $allowed,
+            text: $text,
+        }
+    };
+}
+
+/// Every scenario field, in the order of the written file.
+pub const DOCS: &[Doc] = &[
+    doc!("", "name", "", Allowed::Text, "Name of the case, printed in the summary."),
+    // Vehicle (paper Table 1).
+    doc!("vehicle", "dry_mass_kg", "kg", MASS,
+        "Dry mass m_dry: the final mass must stay at or above it (Eq. 4). Below initial.mass_kg."),
+    doc!("vehicle", "length_m", "m", LENGTH, "Body length l_s."),
+    doc!("vehicle", "radius_m", "m", LENGTH, "Body radius r_s."),
+    doc!("vehicle", "cg_m", "m", LENGTH,
+        "Centre of mass l_cg, measured along the body from the engine gimbal. At most length_m."),
+    doc!("vehicle", "cp_m", "m", LENGTH,
+        "Centre of pressure l_cp, measured like l_cg. At most length_m."),
+    doc!("vehicle", "max_thrust_n", "N", open_closed(0.0, 1e9), "Maximum thrust T_max."),
+    doc!("vehicle", "min_thrust_n", "N", closed(0.0, 1e9),
+        "Minimum thrust T_min: the engine cannot throttle below it (Eq. 5). At most max_thrust_n."),
+    doc!("vehicle", "isp_s", "s", open_closed(0.0, 1000.0), "Specific impulse I_sp."),
+    doc!("vehicle", "max_gimbal_deg", "deg", open(0.0, 90.0),
+        "Maximum nozzle (gimbal) angle delta_max."),
+    doc!("vehicle", "max_gimbal_rate_degps", "deg/s", open_closed(0.0, 360.0),
+        "Maximum nozzle angle rate chi_max."),
+    doc!("vehicle", "drag_coefficient_kgpm", "kg/m", closed(0.0, 1e5),
+        "Lumped drag coefficient C_LD = rho*c_D*A/2 (Eq. 2); 0 is vacuum. The paper omits it; its case uses 1.2*m0*g0/85^2 = 195.52."),
+    // Environment.
+    doc!("environment", "g0_mps2", "m/s^2", open_closed(0.0, 100.0),
+        "Gravitational acceleration g0, also used in I_sp*g0."),
+    // Initial state (Eq. 4).
+    doc!("initial", "x_m", "m", POS_X, "Downrange position x of the CG at ignition."),
+    doc!("initial", "z_m", "m", POS_Z,
+        "Altitude z of the CG at ignition. Above terminal.z_m."),
+    doc!("initial", "vx_mps", "m/s", SPEED, "Horizontal velocity Vx."),
+    doc!("initial", "vz_mps", "m/s", SPEED, "Vertical velocity Vz (negative: descending)."),
+    doc!("initial", "theta_deg", "deg", THETA,
+        "Pitch theta from the vertical; 90 is belly-first (horizontal)."),
+    doc!("initial", "pitch_rate_degps", "deg/s", PITCH_RATE, "Pitch rate w."),
+    doc!("initial", "mass_kg", "kg", MASS, "Mass m0 at ignition. Above vehicle.dry_mass_kg."),
+    doc!("initial", "gimbal_deg", "deg", open(-90.0, 90.0),
+        "Nozzle angle delta at ignition. |delta| at most vehicle.max_gimbal_deg."),
+    // Terminal state (Eq. 4); the final mass is free above m_dry.
+    doc!("terminal", "x_m", "m", POS_X, "Downrange position of the CG at touchdown (the landing point)."),
+    doc!("terminal", "z_m", "m", POS_Z, "Altitude of the CG at touchdown. Below initial.z_m."),
+    doc!("terminal", "vx_mps", "m/s", SPEED, "Horizontal velocity at touchdown."),
+    doc!("terminal", "vz_mps", "m/s", SPEED, "Vertical velocity at touchdown."),
+    doc!("terminal", "theta_deg", "deg", THETA, "Pitch at touchdown; 0 is upright."),
+    doc!("terminal", "pitch_rate_degps", "deg/s", PITCH_RATE, "Pitch rate at touchdown."),
+    // Discretization (Section 3.2).
+    doc!("discretization", "nodes", "", Allowed::Count { lo: 4, hi: 100 },
+        "Number of LGR collocation points N (the paper uses 20)."),
+    doc!("discretization", "tf_guess_s", "s", open_closed(0.0, 1000.0),
+        "Initial guess of the final time t_f (t_f itself is optimized)."),
+    doc!("discretization", "final_mass_guess_kg", "kg", MASS,
+        "Final mass of the straight-line initial guess. Within [vehicle.dry_mass_kg, initial.mass_kg]."),
+    // SCvx (Section 3.4; trust region of Mao, Szmuk and Acikmese 2016).
+    doc!("solver", "formulation", "", Allowed::Choice(FORMULATIONS),
+        "Thrust direction: \"exact\" keeps theta + delta in the dynamics (default); \"paper\" is the paper's P4 with the lossless cone and Eq. 27; \"vector\" is the paper's controls with the thrust held on the nozzle axis."),
+    doc!("solver", "max_iterations", "", Allowed::Count { lo: 1, hi: 10_000 },
+        "SCvx iteration limit; past it the status is not_converged."),
+    doc!("solver", "step_tolerance", "scaled", TOLERANCE,
+        "Convergence: scaled step max|dz| below this."),
+    doc!("solver", "defect_tolerance", "scaled", TOLERANCE,
+        "Convergence: largest nonlinear collocation defect (Eq. 24) below this."),
+    doc!("solver", "virtual_control_tolerance", "scaled", TOLERANCE,
+        "Convergence: largest virtual control below this."),
+    doc!("solver", "virtual_control_weight", "", open_closed(0.0, 1e12),
+        "Exact-penalty weight lambda on the 1-norm of the virtual control."),
+    doc!("solver", "proximal_weight", "", closed(0.0, 1e6),
+        "Weight of the proximal term w*|dz|^2 of each subproblem; 0 is off."),
+    doc!("solver", "trust_region_initial", "scaled", TRUST_RADIUS,
+        "Initial trust-region radius (infinity norm). Within [trust_region_min, trust_region_max]."),
+    doc!("solver", "trust_region_min", "scaled", TRUST_RADIUS,
+        "Smallest trust-region radius before the iteration stops."),
+    doc!("solver", "trust_region_max", "scaled", TRUST_RADIUS, "Largest trust-region radius."),
+    doc!("solver", "rho0", "", RHO,
+        "Acceptance ratio below which a step is rejected. rho0 < rho1 < rho2."),
+    doc!("solver", "rho1", "", RHO, "Acceptance ratio below which the radius shrinks."),
+    doc!("solver", "rho2", "", RHO, "Acceptance ratio at or above which the radius grows."),
+    doc!("solver", "shrink", "", FACTOR, "Radius shrink factor (when rho < rho1)."),
+    doc!("solver", "grow", "", FACTOR, "Radius growth factor (when rho >= rho2)."),
+    doc!("solver", "relaxation_gap_tolerance", "", TOLERANCE,
+        "Largest accepted relaxation gap max(1 - |T|/sigma) of a returned solution."),
+];
+
+/// Order and headings of the TOML tables.
+const TABLES: &[(&str, &str)] = &[
+    ("", ""),
+    ("vehicle", "Vehicle (paper Table 1)."),
+    ("environment", "Planet."),
+    ("initial", "State at ignition of the landing burn (Eq. 4)."),
+    (
+        "terminal",
+        "State at touchdown (Eq. 4). The final mass is free above vehicle.dry_mass_kg.",
+    ),
+    ("discretization", "LGR collocation (Section 3.2)."),
+    (
+        "solver",
+        "Successive convexification (Section 3.4). Optional: a missing key takes its default.",
+    ),
+];
+
+/// A range bound written like the validation messages: `1e7`, `100`, `0`.
+fn bound(x: f64) -> String {
+    if x != 0.0 && (x.abs() >= 1e4 || x.abs() < 1e-3) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
+/// The allowed values as text, e.g. `(0, 1e7]`.
+pub fn allowed_text(d: &Doc) -> String {
+    match d.allowed {
+        Allowed::Real {
+            lo,
+            hi,
+            lo_open,
+            hi_open,
+        } => format!(
+            "{}{}, {}{}",
+            if lo_open { '(' } else { '[' },
+            bound(lo),
+            bound(hi),
+            if hi_open { ')' } else { ']' }
+        ),
+        Allowed::Count { lo, hi } => format!("an integer from {lo} to {hi}"),
+        Allowed::Choice(c) => c
+            .iter()
+            .map(|s| format!("\"{s}\""))
+            .collect::<Vec<_>>()
+            .join(", "),
+        Allowed::Text => "any text".into(),
+    }
+}
+
+/// A serde value as a TOML literal that reads back to the same value.
+fn literal(v: &Value) -> String {
+    match v {
+        Value::Number(n) => match (n.as_u64(), n.as_i64(), n.as_f64()) {
+            (Some(u), _, _) if !n.is_f64() => u.to_string(),
+            (_, Some(i), _) if !n.is_f64() => i.to_string(),
+            // `{:?}` keeps a `.0` on whole numbers (TOML floats need it, or
+            // an exponent) and is the shortest round-tripping text.
+            (_, _, Some(f)) => format!("{f:?}"),
+            _ => n.to_string(),
+        },
+        // A JSON string is a valid TOML basic string.
+        Value::String(_) | Value::Bool(_) => v.to_string(),
+        other => panic!("no TOML literal for {other}"),
+    }
+}
+
+/// Wrap `text` into `# `-comment lines of at most ~88 characters.
+fn comment(out: &mut String, text: &str) {
+    let mut line = String::from("#");
+    for word in text.split_whitespace() {
+        if line.len() + 1 + word.len() > 88 && line.len() > 1 {
+            out.push_str(&line);
+            out.push('\n');
+            line = String::from("#");
+        }
+        line.push(' ');
+        line.push_str(word);
+    }
+    out.push_str(&line);
+    out.push('\n');
+}
+
+/// Write one `key = value` with its comment.
+fn entry(out: &mut String, table: &str, key: &str, value: &Value) {
+    match DOCS.iter().find(|d| d.table == table && d.key == key) {
+        Some(d) => {
+            comment(out, d.text);
+            let unit = match d.unit {
+                "" => String::new(),
+                "scaled" => "Unit: none (scaled). ".into(),
+                u => format!("Unit: {u}. "),
+            };
+            comment(out, &format!("{unit}Allowed: {}.", allowed_text(d)));
+        }
+        None => comment(out, "(undocumented field)"),
+    }
+    let _ = writeln!(out, "{key} = {}", literal(value));
+}
+
+/// The commented TOML text of a scenario: every field, with its unit and
+/// allowed range.
+pub fn template(scenario: &Scenario) -> String {
+    let v = serde_json::to_value(scenario).expect("a Scenario serializes");
+    let Value::Object(top) = v else {
+        panic!("a Scenario serializes to an object")
+    };
+    let mut out = String::new();
+    out.push_str(
+        "# bellyflop scenario, written by `bellyflop init`: the paper's case\n\
+         # (Chen, Ma, Wang, Su, Mathematics 2023, 11, 288).\n\
+         # Solve it with `bellyflop solve --scenario FILE`. Every value is checked against\n\
+         # the range given before solving; units are in the key names and comments.\n\
+         # Ranges: [a, b] includes both ends, (a, b) excludes them.\n",
+    );
+    let mut tables: Vec<&str> = TABLES.iter().map(|(t, _)| *t).collect();
+    for (k, v) in &top {
+        if v.is_object() && !tables.contains(&k.as_str()) {
+            tables.push(k);
+        }
+    }
+    for table in tables {
+        let heading = TABLES.iter().find(|(t, _)| *t == table).map(|(_, h)| *h);
+        let fields: Vec<(&String, &Value)> = if table.is_empty() {
+            top.iter().filter(|(_, v)| !v.is_object()).collect()
+        } else {
+            match top.get(table) {
+                Some(Value::Object(m)) => m.iter().collect(),
+                _ => continue,
+            }
+        };
+        out.push('\n');
+        if !table.is_empty() {
+            comment(&mut out, heading.unwrap_or("(undocumented table)"));
+            let _ = writeln!(out, "[{table}]");
+        }
+        // Documented keys in the order of DOCS, then any others.
+        let mut ordered: Vec<(&String, &Value)> = Vec::new();
+        for d in DOCS.iter().filter(|d| d.table == table) {
+            if let Some(f) = fields.iter().find(|(k, _)| k.as_str() == d.key) {
+                ordered.push(*f);
+            }
+        }
+        for f in &fields {
+            if !ordered.iter().any(|(k, _)| k == &f.0) {
+                ordered.push(*f);
+            }
+        }
+        for (k, v) in ordered {
+            entry(&mut out, table, k, v);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bellyflop::InputError;
+
+    fn with_field(table: &str, key: &str, value: Value) -> Result<Scenario, String> {
+        let mut v = serde_json::to_value(Scenario::paper()).unwrap();
+        if table.is_empty() {
+            v[key] = value;
+        } else {
+            v[table][key] = value;
+        }
+        serde_json::from_value::<Scenario>(v).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn template_reads_back_as_the_paper_case() {
+        let text = template(&Scenario::paper());
+        assert!(!text.contains("undocumented"), "{text}");
+        let s = Scenario::from_toml_str(&text).expect("the template is valid");
+        assert_eq!(s, Scenario::paper());
+        // Every key is written once, each with its comment above it.
+        for d in DOCS {
+            let line = format!("\n{} = ", d.key);
+            assert!(text.contains(&line), "{} missing", d.key);
+        }
+    }
+
+    #[test]
+    fn every_documented_field_exists() {
+        let v = serde_json::to_value(Scenario::paper()).unwrap();
+        for d in DOCS {
+            let field = if d.table.is_empty() {
+                &v[d.key]
+            } else {
+                &v[d.table][d.key]
+            };
+            assert!(
+                !field.is_null(),
+                "{}.{} is not a scenario field",
+                d.table,
+                d.key
+            );
+        }
+    }
+
+    /// The documented ranges are the validated ones: just outside is rejected
+    /// with an out-of-range error naming the field; at the end (or just
+    /// inside an open end) no range error is raised.
+    #[test]
+    fn documented_ranges_match_validation() {
+        for d in DOCS {
+            let name = if d.table.is_empty() {
+                d.key.to_string()
+            } else {
+                format!("{}.{}", d.table, d.key)
+            };
+            let check = |value: Value, inside: bool| {
+                let s = with_field(d.table, d.key, value.clone())
+                    .unwrap_or_else(|e| panic!("{name} = {value}: {e}"));
+                match s.validate() {
+                    Err(InputError::OutOfRange { field, .. }) => {
+                        assert!(!inside, "{name} = {value} rejected as out of range");
+                        assert_eq!(field, name);
+                    }
+                    Ok(()) | Err(InputError::Inconsistent { .. }) => {
+                        assert!(inside, "{name} = {value} accepted");
+                    }
+                    Err(e) => panic!("{name} = {value}: {e}"),
+                }
+            };
+            match d.allowed {
+                Allowed::Real {
+                    lo,
+                    hi,
+                    lo_open,
+                    hi_open,
+                } => {
+                    let (lo_in, lo_out) = if lo_open {
+                        (lo.next_up(), lo)
+                    } else {
+                        (lo, lo.next_down())
+                    };
+                    let (hi_in, hi_out) = if hi_open {
+                        (hi.next_down(), hi)
+                    } else {
+                        (hi, hi.next_up())
+                    };
+                    check(lo_in.into(), true);
+                    check(lo_out.into(), false);
+                    check(hi_in.into(), true);
+                    check(hi_out.into(), false);
+                }
+                Allowed::Count { lo, hi } => {
+                    check(lo.into(), true);
+                    check(hi.into(), true);
+                    if lo > 0 {
+                        check((lo - 1).into(), false);
+                    }
+                    check((hi + 1).into(), false);
+                }
+                Allowed::Choice(choices) => {
+                    for c in choices {
+                        assert!(with_field(d.table, d.key, (*c).into()).is_ok(), "{c}");
+                    }
+                    assert!(with_field(d.table, d.key, "nonsense".into()).is_err());
+                }
+                Allowed::Text => {}
+            }
+        }
+    }
+}

@@ -1,0 +1,170 @@
+//! `solve --out DIR`: the trajectory as CSV, the solution as JSON, and the plots.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use bellyflop::propagate::{Interpolant, Propagation};
+use bellyflop::{Scenario, Solution};
+
+use crate::plot;
+use crate::sample::{Dense, COLUMNS};
+
+/// Samples per interval between consecutive LGR nodes in `trajectory.csv`
+/// and in the plots.
+pub const SAMPLES_PER_INTERVAL: usize = 10;
+
+/// Why writing the output failed.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    #[error("{path}: {message}")]
+    Io { path: String, message: String },
+    #[error("plot {path}: {message}")]
+    Plot { path: String, message: String },
+}
+
+impl OutputError {
+    pub fn io(path: &Path, e: impl std::fmt::Display) -> Self {
+        OutputError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        }
+    }
+}
+
+/// Exit code when the output files cannot be written (after the solve).
+pub const EXIT_OUTPUT: u8 = 1;
+
+/// Write everything for `solve --out DIR`: `json` is the object `--json`
+/// prints, `propagation` the re-integration of the solution (drawn dashed).
+/// On success list the files on stderr (unless `quiet`); on failure print
+/// the error and return the exit code.
+pub fn write_and_report(
+    dir: &Path,
+    scenario: &Scenario,
+    solution: &Solution,
+    json: &serde_json::Value,
+    propagation: Option<&Propagation>,
+    quiet: bool,
+) -> Result<(), std::process::ExitCode> {
+    let over = propagation.map(|p| overlay(solution, p));
+    match write_all(dir, scenario, solution, json, over.as_ref()) {
+        Ok(files) => {
+            if !quiet {
+                let names: Vec<String> = files
+                    .iter()
+                    .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+                    .collect();
+                eprintln!("wrote {}: {}", dir.display(), names.join(", "));
+            }
+            Ok(())
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            Err(std::process::ExitCode::from(EXIT_OUTPUT))
+        }
+    }
+}
+
+/// The re-integrated trajectory as drawn dashed over the solution in the
+/// path and time-history plots, sampled at the integrator's accepted steps.
+/// Its thrust and gimbal rate are the interpolants the integration used.
+pub fn overlay(solution: &Solution, p: &Propagation) -> Dense {
+    let state = |c: usize| p.states.iter().map(|s| s[c]).collect::<Vec<f64>>();
+    let along = |values: &[f64]| {
+        let f = Interpolant::new(p.options.interpolation, &solution.t_s, values);
+        p.t_s.iter().map(|&t| f.eval(t)).collect::<Vec<f64>>()
+    };
+    Dense::from_columns([
+        p.t_s.clone(),
+        state(0),
+        state(1),
+        state(2),
+        state(3),
+        state(4),
+        state(5),
+        state(6),
+        p.delta_rad.clone(),
+        along(&solution.thrust_n),
+        along(&solution.gimbal_rate_radps),
+    ])
+}
+
+/// Create the output directory (and its parents) if needed.
+pub fn prepare(dir: &Path) -> Result<(), OutputError> {
+    std::fs::create_dir_all(dir).map_err(|e| OutputError::io(dir, e))
+}
+
+/// Write `trajectory.csv`, `solution.json` (the text of `json`) and every
+/// plot (SVG and PNG) into `dir`, and return the paths written. `overlay` is
+/// drawn dashed on the path and time-history plots (e.g. a re-integrated
+/// trajectory).
+pub fn write_all(
+    dir: &Path,
+    scenario: &Scenario,
+    solution: &Solution,
+    json: &serde_json::Value,
+    overlay: Option<&Dense>,
+) -> Result<Vec<PathBuf>, OutputError> {
+    prepare(dir)?;
+    let dense = Dense::from_solution(solution, SAMPLES_PER_INTERVAL);
+    let mut written = Vec::new();
+
+    let csv = dir.join("trajectory.csv");
+    std::fs::write(&csv, trajectory_csv(&dense)).map_err(|e| OutputError::io(&csv, e))?;
+    written.push(csv);
+
+    let json_path = dir.join("solution.json");
+    std::fs::write(&json_path, format!("{json}\n")).map_err(|e| OutputError::io(&json_path, e))?;
+    written.push(json_path);
+
+    let data = plot::PlotData::new(scenario, solution, &dense, overlay);
+    written.extend(plot::render_all(dir, &data)?);
+    Ok(written)
+}
+
+/// The CSV text: one header line of column names with their units as
+/// suffixes (the same names as the JSON keys), then one line per sample in
+/// full precision (`{}` of f64 is the shortest string that reads back to the
+/// same number). The last column `is_node` is 1 on the LGR nodes, else 0.
+pub fn trajectory_csv(d: &Dense) -> String {
+    let mut s = String::new();
+    for (name, _) in COLUMNS {
+        s.push_str(name);
+        s.push(',');
+    }
+    s.push_str("is_node\n");
+    for i in 0..d.len() {
+        for (_, col) in COLUMNS {
+            let _ = write!(s, "{},", col(d)[i]);
+        }
+        s.push_str(if d.node[i].is_some() { "1\n" } else { "0\n" });
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_round_trips_every_digit() {
+        let x = [0.1 + 0.2, 1.0 / 3.0, 114_568.912_345_678_9, -1e-300, 2.0];
+        let cols: [Vec<f64>; 11] =
+            std::array::from_fn(|c| x.iter().map(|v| v * (c as f64 + 1.0)).collect::<Vec<f64>>());
+        let mut d = Dense::from_columns(cols.clone());
+        d.node[0] = Some(0);
+        let text = trajectory_csv(&d);
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(header.len(), 12);
+        assert_eq!(header[0], "t_s");
+        assert_eq!(header[11], "is_node");
+        for (i, line) in lines.enumerate() {
+            let fields: Vec<&str> = line.split(',').collect();
+            for (c, col) in cols.iter().enumerate() {
+                assert_eq!(fields[c].parse::<f64>().unwrap(), col[i]);
+            }
+            assert_eq!(fields[11], if i == 0 { "1" } else { "0" });
+        }
+    }
+}

@@ -1,0 +1,228 @@
+//! Dense sampling of a solution from its LGR interpolants.
+//!
+//! The states are the degree-N Lagrange polynomials through the N + 1 LGR
+//! nodes (`Lgr::interpolate_states`); the controls are the degree-(N − 1)
+//! polynomials through the N collocation points (`Lgr::interpolate_controls`).
+//! The controls are not collocated on (τ_N, 1]; there they hold the value of
+//! the last collocation point, as the `Solution` arrays do at t_f (the
+//! extrapolated polynomial can overshoot the thrust bounds). Between nodes these
+//! polynomials are what the collocation method represents; only the node
+//! values are optimized.
+
+use bellyflop::dynamics::{self, ix};
+use bellyflop::radau::Lgr;
+use bellyflop::Solution;
+
+/// A trajectory sampled in time, in SI units and radians.
+///
+/// Every column has the same length. The same type carries the solution's
+/// interpolants ([`Dense::from_solution`]) and, for overlays, any other
+/// trajectory given by its columns ([`Dense::from_columns`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Dense {
+    pub t_s: Vec<f64>,
+    pub x_m: Vec<f64>,
+    pub z_m: Vec<f64>,
+    pub vx_mps: Vec<f64>,
+    pub vz_mps: Vec<f64>,
+    pub theta_rad: Vec<f64>,
+    pub pitch_rate_radps: Vec<f64>,
+    pub mass_kg: Vec<f64>,
+    pub delta_rad: Vec<f64>,
+    pub thrust_n: Vec<f64>,
+    pub gimbal_rate_radps: Vec<f64>,
+    /// `Some(k)` where the sample is LGR node k (0 ≤ k ≤ N), else `None`.
+    pub node: Vec<Option<usize>>,
+}
+
+/// The columns of a [`Dense`] trajectory in the order of the CSV file:
+/// (header, accessor).
+pub type Column = (&'static str, fn(&Dense) -> &[f64]);
+
+/// Every numeric column, in CSV order, with its unit in the name.
+pub const COLUMNS: [Column; 11] = [
+    ("t_s", |d| &d.t_s),
+    ("x_m", |d| &d.x_m),
+    ("z_m", |d| &d.z_m),
+    ("vx_mps", |d| &d.vx_mps),
+    ("vz_mps", |d| &d.vz_mps),
+    ("theta_rad", |d| &d.theta_rad),
+    ("pitch_rate_radps", |d| &d.pitch_rate_radps),
+    ("mass_kg", |d| &d.mass_kg),
+    ("delta_rad", |d| &d.delta_rad),
+    ("thrust_n", |d| &d.thrust_n),
+    ("gimbal_rate_radps", |d| &d.gimbal_rate_radps),
+];
+
+impl Dense {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+
+    /// Sample the solution's interpolants: `per_interval` samples on each of
+    /// the N intervals between consecutive LGR nodes, plus the final node, so
+    /// N·`per_interval` + 1 samples that include every node exactly.
+    ///
+    /// At a node the states are the node values of the solution bit for bit
+    /// (the barycentric formula returns them as is); the thrust is σ·m with σ
+    /// from the control polynomial, equal to the node value to rounding.
+    pub fn from_solution(s: &Solution, per_interval: usize) -> Dense {
+        let per = per_interval.max(1);
+        let tr = &s.trajectory;
+        let n = tr.x.len() - 1;
+        let lgr = Lgr::new(n);
+        let nu = dynamics::control_dim(s.formulation);
+
+        let state = |c: usize| tr.x.iter().map(|x| x[c]).collect::<Vec<f64>>();
+        let sigma: Vec<f64> = (0..n)
+            .map(|i| dynamics::thrust_components(s.formulation, &tr.x[i], &tr.u[i][..nu]).2)
+            .collect();
+        let chi: Vec<f64> = (0..n).map(|i| tr.u[i][nu - 1]).collect();
+        let columns = [
+            state(ix::X),
+            state(ix::Z),
+            state(ix::VX),
+            state(ix::VZ),
+            state(ix::THETA),
+            state(ix::W),
+            state(ix::OMEGA),
+            state(ix::DELTA),
+        ];
+
+        let mut taus = Vec::with_capacity(n * per + 1);
+        let mut node = Vec::with_capacity(n * per + 1);
+        for k in 0..n {
+            let (a, b) = (lgr.nodes[k], lgr.nodes[k + 1]);
+            for j in 0..per {
+                taus.push(if j == 0 {
+                    a
+                } else {
+                    a + (b - a) * j as f64 / per as f64
+                });
+                node.push((j == 0).then_some(k));
+            }
+        }
+        taus.push(lgr.nodes[n]);
+        node.push(Some(n));
+
+        let mut d = Dense {
+            node,
+            ..Dense::default()
+        };
+        for &tau in &taus {
+            let st: Vec<f64> = columns
+                .iter()
+                .map(|c| lgr.interpolate_states(c, tau))
+                .collect();
+            let mass = st[6].exp();
+            d.t_s.push((tau + 1.0) * tr.tf_s / 2.0);
+            d.x_m.push(st[0]);
+            d.z_m.push(st[1]);
+            d.vx_mps.push(st[2]);
+            d.vz_mps.push(st[3]);
+            d.theta_rad.push(st[4]);
+            d.pitch_rate_radps.push(st[5]);
+            d.mass_kg.push(mass);
+            d.delta_rad.push(st[7]);
+            // On (τ_N, 1] the controls hold the last collocation value, as in
+            // the Solution's arrays; the polynomial would be extrapolated there.
+            let tau_c = tau.min(lgr.nodes[n - 1]);
+            d.thrust_n
+                .push(lgr.interpolate_controls(&sigma, tau_c) * mass);
+            d.gimbal_rate_radps
+                .push(lgr.interpolate_controls(&chi, tau_c));
+        }
+        d
+    }
+
+    /// The solution's node values only (N + 1 samples), as stored in the
+    /// [`Solution`] arrays.
+    pub fn nodes_of(s: &Solution) -> Dense {
+        Dense {
+            t_s: s.t_s.clone(),
+            x_m: s.x_m.clone(),
+            z_m: s.z_m.clone(),
+            vx_mps: s.vx_mps.clone(),
+            vz_mps: s.vz_mps.clone(),
+            theta_rad: s.theta_rad.clone(),
+            pitch_rate_radps: s.pitch_rate_radps.clone(),
+            mass_kg: s.mass_kg.clone(),
+            delta_rad: s.delta_rad.clone(),
+            thrust_n: s.thrust_n.clone(),
+            gimbal_rate_radps: s.gimbal_rate_radps.clone(),
+            node: (0..s.t_s.len()).map(Some).collect(),
+        }
+    }
+
+    /// A trajectory from its columns (e.g. a re-integrated one, for the dashed
+    /// overlay of the plots). `columns` are in the order of [`COLUMNS`]; all
+    /// must have the same length. No sample is marked as a node.
+    ///
+    /// # Panics
+    /// Panics if the columns differ in length.
+    pub fn from_columns(columns: [Vec<f64>; 11]) -> Dense {
+        let len = columns[0].len();
+        assert!(
+            columns.iter().all(|c| c.len() == len),
+            "all columns need the same length"
+        );
+        let [t_s, x_m, z_m, vx_mps, vz_mps, theta_rad, pitch_rate_radps, mass_kg, delta_rad, thrust_n, gimbal_rate_radps] =
+            columns;
+        Dense {
+            t_s,
+            x_m,
+            z_m,
+            vx_mps,
+            vz_mps,
+            theta_rad,
+            pitch_rate_radps,
+            mass_kg,
+            delta_rad,
+            thrust_n,
+            gimbal_rate_radps,
+            node: vec![None; len],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bellyflop::Scenario;
+
+    fn solution(n: usize) -> Solution {
+        let mut s = Scenario::paper();
+        s.discretization.nodes = n;
+        bellyflop::solve(&s, &mut |_: &bellyflop::solution::IterationRecord| {})
+    }
+
+    #[test]
+    fn nodes_are_sampled_exactly() {
+        let s = solution(10);
+        let d = Dense::from_solution(&s, 7);
+        assert_eq!(d.len(), 10 * 7 + 1);
+        assert!(COLUMNS.iter().all(|(_, c)| c(&d).len() == d.len()));
+        let nodes = Dense::nodes_of(&s);
+        let mut seen = 0;
+        for (i, k) in d.node.iter().enumerate() {
+            if let Some(k) = *k {
+                seen += 1;
+                assert_eq!(d.t_s[i], nodes.t_s[k]);
+                for (name, col) in COLUMNS {
+                    if name == "thrust_n" || name == "gimbal_rate_radps" {
+                        let rel =
+                            (col(&d)[i] - col(&nodes)[k]).abs() / col(&nodes)[k].abs().max(1.0);
+                        assert!(rel < 1e-12, "{name} at node {k}");
+                    } else if name == "mass_kg" {
+                        assert!((col(&d)[i] / col(&nodes)[k] - 1.0).abs() < 1e-15);
+                    } else {
+                        assert_eq!(col(&d)[i], col(&nodes)[k], "{name} at node {k}");
+                    }
+                }
+            }
+        }
+        assert_eq!(seen, 11);
+        assert!(d.t_s.windows(2).all(|w| w[0] < w[1]));
+    }
+}
