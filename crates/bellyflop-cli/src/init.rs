@@ -187,6 +187,8 @@ pub const DOCS: &[Doc] = &[
     // SCvx (Section 3.4; trust region of Mao, Szmuk and Acikmese 2016).
     doc!("solver", "formulation", "", Allowed::Choice(FORMULATIONS),
         "Thrust direction: \"exact\" keeps theta + delta in the dynamics (default); \"paper\" is the paper's P4 with the lossless cone and Eq. 27; \"vector\" is the paper's controls with the thrust held on the nozzle axis."),
+    doc!("solver", "relaxed_first_iterations", "", Allowed::Count { lo: 0, hi: 10_000 },
+        "Exact formulation only: iterations given first to the paper's relaxation, whose answer is kept only if it passes every physical check; 0 solves the exact form directly."),
     doc!("solver", "max_iterations", "", Allowed::Count { lo: 1, hi: 10_000 },
         "SCvx iteration limit; past it the status is not_converged."),
     doc!("solver", "step_tolerance", "scaled", TOLERANCE,

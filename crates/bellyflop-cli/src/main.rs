@@ -160,7 +160,14 @@ fn print_summary(scenario: &Scenario, s: &Solution) {
     if !s.message.is_empty() {
         println!("reason        {}", s.message);
     }
-    println!("formulation   {:?}, N = {}", s.formulation, s.nodes);
+    let form = match (scenario.solver.formulation, s.formulation) {
+        (Formulation::Exact, Formulation::Paper) => {
+            "exact (answered by the paper's relaxation, which passed every physical check)"
+                .to_string()
+        }
+        (_, f) => format!("{f:?}").to_lowercase(),
+    };
+    println!("formulation   {form}, N = {}", s.nodes);
     println!("t_f           {:.4} s", s.tf_s);
     println!(
         "final mass    {:.1} kg (fuel {:.1} kg)",

@@ -108,6 +108,10 @@ pub struct Discretization {
 #[serde(deny_unknown_fields, default)]
 pub struct SolverSettings {
     pub formulation: Formulation,
+    /// Exact formulation only: iterations allowed to the paper's relaxation
+    /// before the exact form is solved; its answer is kept only if it passes
+    /// every physical check. 0 solves the exact form directly.
+    pub relaxed_first_iterations: usize,
     /// Iteration limit; past it the status is `not_converged`.
     pub max_iterations: usize,
     /// Convergence: scaled step ‖Δz‖∞ below this.
@@ -141,6 +145,7 @@ impl Default for SolverSettings {
     fn default() -> Self {
         Self {
             formulation: Formulation::Exact,
+            relaxed_first_iterations: 10,
             max_iterations: 100,
             step_tolerance: 1e-3,
             defect_tolerance: 1e-7,

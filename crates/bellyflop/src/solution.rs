@@ -102,6 +102,9 @@ pub struct Solution {
     pub status: Status,
     /// Why the status is not `solved`, or empty.
     pub message: String,
+    /// The formulation whose iterate was returned. With the exact formulation's
+    /// relaxed first phase this is `paper` when that phase's answer passed
+    /// every physical check.
     pub formulation: Formulation,
     pub nodes: usize,
     pub tf_s: f64,

@@ -157,6 +157,8 @@ const TF_GUESS: Range = Range::open_closed(0.0, 1000.0, "s");
 
 /// Iteration limit: at least one iteration, at most 10000.
 const MAX_ITERATIONS: (usize, usize) = (1, 10_000);
+/// Iterations of the relaxed first phase: 0 (off) to 10000.
+const RELAXED_FIRST_ITERATIONS: (usize, usize) = (0, 10_000);
 /// Convergence tolerances on scaled quantities, and the accepted relaxation
 /// gap 1 − ‖T‖/σ: strictly between 0 (never reached in floating point) and 1
 /// (no accuracy at all).
@@ -278,6 +280,11 @@ fn discretization(d: &Discretization) -> Result<(), InputError> {
 /// [`TRUST_RADIUS`], [`RHO`], [`FACTOR`].
 fn solver(s: &SolverSettings) -> Result<(), InputError> {
     count_in_range("solver.max_iterations", s.max_iterations, MAX_ITERATIONS)?;
+    count_in_range(
+        "solver.relaxed_first_iterations",
+        s.relaxed_first_iterations,
+        RELAXED_FIRST_ITERATIONS,
+    )?;
     check_all(&[
         ("solver.step_tolerance", s.step_tolerance, TOLERANCE),
         ("solver.defect_tolerance", s.defect_tolerance, TOLERANCE),

@@ -53,14 +53,10 @@ fn paper_formulation_n20_lands_within_2m_and_half_mps() {
     assert_lands(&p, "paper formulation, PCHIP");
 }
 
-/// The default (exact) formulation. Its N = 20 optimum lies 0.6 kg of final
-/// mass below the paper formulation's and the reference's, and re-propagated it
-/// misses by 1.32 m / 0.65 m/s with PCHIP (2.56 m / 0.80 m/s linear): the
-/// velocity limit is not met. The miss is horizontal, through a 0.67° pitch
-/// error from the reconstruction of the bang-bang thrust; see the `propagate`
-/// module documentation.
+/// The default (exact) formulation, whose relaxed first phase lands on the
+/// reference optimum at N = 20. (The exact form solved directly stops 0.6 kg
+/// short and misses by 1.32 m / 0.65 m/s; see the `propagate` module docs.)
 #[test]
-#[ignore = "known miss: the exact formulation's N = 20 solution lands 1.32 m / 0.65 m/s from the target (limit 0.5 m/s); see issue 3"]
 fn default_formulation_n20_lands_within_2m_and_half_mps() {
     let p = propagate_paper_case(Formulation::Exact, Interpolation::default());
     assert_lands(&p, "exact formulation, PCHIP");
