@@ -148,7 +148,7 @@ impl Default for SolverSettings {
             relaxed_first_iterations: 10,
             max_iterations: 100,
             step_tolerance: 1e-3,
-            defect_tolerance: 1e-7,
+            defect_tolerance: 1e-6,
             virtual_control_tolerance: 1e-7,
             virtual_control_weight: 1e3,
             proximal_weight: 0.0,

@@ -190,7 +190,9 @@ pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
         relaxed.solver.rho2 = RELAXED_RHO2;
         relaxed.solver.grow = RELAXED_GROW;
         relaxed.solver.shrink = RELAXED_SHRINK;
-        let tr = Transcription::new(&relaxed, d.nodes);
+        // Without the ground bound: it bends the relaxed iteration's path
+        // although it is inactive at the optimum; the answer is still checked.
+        let tr = Transcription::new(&relaxed, d.nodes).without_ground_bound();
         let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
         let first = solve_from(&tr, guess, &relaxed.solver, observer);
         if first.status == Status::Solved || first.iterations >= scenario.solver.max_iterations {
@@ -334,13 +336,21 @@ pub fn solve_from(
             radius = (radius * settings.grow).min(settings.trust_region_max);
         }
         if radius < settings.trust_region_min {
-            outcome = Some((
-                Status::NotConverged,
-                format!(
-                    "trust region shrank below {:.1e} without convergence; best iterate returned",
-                    settings.trust_region_min
-                ),
-            ));
+            // No step, however short, lowers the merit: the reference is a
+            // stationary point of it. It is a solution if it is feasible.
+            let feasible = tr.merit(&reference).defect_max <= settings.defect_tolerance
+                && last_vc <= settings.virtual_control_tolerance;
+            outcome = Some(if feasible {
+                (Status::Solved, String::new())
+            } else {
+                (
+                    Status::NotConverged,
+                    format!(
+                        "trust region shrank below {:.1e} without convergence; best iterate returned",
+                        settings.trust_region_min
+                    ),
+                )
+            });
             break;
         }
     }
@@ -359,6 +369,12 @@ pub fn solve_from(
             message = format!(
                 "lossless relaxation not tight: max(1 - |T|/sigma) = {:.3e} > {:.1e}",
                 checks.relaxation_gap, settings.relaxation_gap_tolerance
+            );
+        } else if checks.min_altitude_margin_m < -1e-6 {
+            status = Status::NonPhysical;
+            message = format!(
+                "the trajectory passes {:.3} m below the landing altitude",
+                -checks.min_altitude_margin_m
             );
         } else if checks.thrust_backwards() {
             status = Status::NonPhysical;

@@ -84,6 +84,8 @@ pub struct Checks {
     pub max_defect: f64,
     /// Largest virtual control of the last subproblem (scaled).
     pub virtual_control: f64,
+    /// min over nodes of z − z_f [m]; negative means below the landing altitude.
+    pub min_altitude_margin_m: f64,
 }
 
 impl Checks {
@@ -157,7 +159,12 @@ pub fn check(tr: &Transcription, t: &Trajectory, virtual_control: f64) -> Checks
         .iter()
         .flatten()
         .fold(0.0f64, |m, v| m.max(v.abs()));
+    let min_altitude_margin_m =
+        t.x.iter()
+            .map(|x| x[ix::Z] - tr.xf[ix::Z])
+            .fold(f64::INFINITY, f64::min);
     Checks {
+        min_altitude_margin_m,
         relaxation_gap: gap,
         thrust_alignment_min: align,
         thrust_bound_violation_n: bound,
