@@ -160,13 +160,7 @@ fn print_summary(scenario: &Scenario, s: &Solution) {
     if !s.message.is_empty() {
         println!("reason        {}", s.message);
     }
-    let form = match (scenario.solver.formulation, s.formulation) {
-        (Formulation::Exact, Formulation::Paper) => {
-            "exact (answered by the paper's relaxation, which passed every physical check)"
-                .to_string()
-        }
-        (_, f) => format!("{f:?}").to_lowercase(),
-    };
+    let form = s.formulation_label(scenario.solver.formulation);
     println!("formulation   {form}, N = {}", s.nodes);
     println!("t_f           {:.4} s", s.tf_s);
     println!(

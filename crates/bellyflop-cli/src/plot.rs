@@ -93,17 +93,15 @@ impl<'a> PlotData<'a> {
 
     fn title(&self) -> String {
         format!(
-            "{}: N = {}, {:?} formulation, {}, t_f = {:.3} s, final mass {:.1} kg",
+            "{}: N = {}, {} formulation, {}, t_f = {:.3} s, final mass {:.1} kg",
             self.scenario.name,
             self.solution.nodes,
-            self.solution.formulation,
+            self.solution
+                .formulation_label(self.scenario.solver.formulation),
             self.solution.status.as_str(),
             self.solution.tf_s,
             self.solution.final_mass_kg
         )
-        .replace("Exact", "exact")
-        .replace("Paper", "paper")
-        .replace("Vector", "vector")
     }
 }
 

@@ -221,6 +221,16 @@ impl Solution {
         }
     }
 
+    /// A name for the formulation that produced this answer, given the one
+    /// requested: "exact (via the paper's relaxation)" when the exact
+    /// formulation's relaxed first phase answered.
+    pub fn formulation_label(&self, requested: Formulation) -> String {
+        match (requested, self.formulation) {
+            (Formulation::Exact, Formulation::Paper) => "exact (via the paper's relaxation)".into(),
+            (_, f) => format!("{f:?}").to_lowercase(),
+        }
+    }
+
     /// One JSON object with the status, scalars, node arrays, checks and history.
     pub fn to_json(&self) -> serde_json::Value {
         let mut v = serde_json::to_value(self).expect("a Solution serializes");
