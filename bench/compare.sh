@@ -1,0 +1,104 @@
+#!/usr/bin/env bash
+# Side-by-side solve times: ours (LGR + SCvx + Clarabel) against the CasADi + IPOPT
+# P2 reference (bench/reference/nlp_reference.py), same scenario and N, one run.
+#
+#   bench/compare.sh [N ...]        (default: 20 40)
+#
+# Environment: SCENARIO (default scenarios/paper.toml), REPEAT (default 10, >= 10).
+# Ours: the CLI's `solve_time_ms` (the SCvx loop, Transcription setup excluded)
+# over REPEAT separate runs of `bellyflop solve --json --quiet`; median reported.
+# IPOPT: the reference's `solve_time_ms`, itself the median of REPEAT solve calls
+# from the straight-line guess (solver build time excluded).
+# Any failure (build, non-solved status, IPOPT not converging) aborts the script.
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+SCENARIO="${SCENARIO:-scenarios/paper.toml}"
+REPEAT="${REPEAT:-10}"
+NODES=("$@")
+[ ${#NODES[@]} -eq 0 ] && NODES=(20 40)
+
+die() { echo "compare.sh: error: $*" >&2; exit 1; }
+[ "$REPEAT" -ge 10 ] 2>/dev/null || die "REPEAT must be an integer >= 10 (got '$REPEAT')"
+[ -f "$SCENARIO" ] || die "scenario '$SCENARIO' not found"
+for n in "${NODES[@]}"; do
+    [[ "$n" =~ ^[0-9]+$ ]] || die "N must be a positive integer (got '$n')"
+done
+
+VENV="bench/reference/.venv"
+PY="$VENV/bin/python"
+if [ ! -x "$PY" ]; then
+    echo "compare.sh: creating $VENV from bench/reference/requirements.txt" >&2
+    python3 -m venv "$VENV" || die "python3 -m venv failed"
+    "$VENV/bin/pip" install --quiet -r bench/reference/requirements.txt || die "pip install failed"
+fi
+
+echo "compare.sh: building target/release/bellyflop" >&2
+cargo build --release --quiet -p bellyflop-cli || die "cargo build --release failed"
+BIN="target/release/bellyflop"
+[ -x "$BIN" ] || die "$BIN not found after the build"
+
+TMP="$(mktemp -d)"
+trap 'rm -rf "$TMP"' EXIT
+
+# ours N -> prints "median_ms iterations" (fails unless every run is `solved`)
+ours() {
+    local n="$1" i rc
+    : > "$TMP/ours_$n"
+    for ((i = 1; i <= REPEAT; i++)); do
+        rc=0
+        "$BIN" solve --scenario "$SCENARIO" --json --quiet --nodes "$n" > "$TMP/run.json" || rc=$?
+        [ "$rc" -eq 0 ] || die "ours at N=$n, run $i: bellyflop exited with $rc"
+        python3 - "$TMP/run.json" "$n" >> "$TMP/ours_$n" <<'PY' || die "ours at N=$n: bad output"
+import json, sys
+d = json.load(open(sys.argv[1]))
+if d.get("status") != "solved":
+    sys.exit(f"status {d.get('status')!r}: {d.get('message')}")
+if d.get("nodes") != int(sys.argv[2]):
+    sys.exit(f"nodes {d.get('nodes')} != {sys.argv[2]}")
+print(d["solve_time_ms"], d["iterations"], d["final_mass_kg"])
+PY
+    done
+    python3 - "$TMP/ours_$n" <<'PY'
+import statistics, sys
+rows = [l.split() for l in open(sys.argv[1]) if l.strip()]
+t = [float(r[0]) for r in rows]
+print(f"{statistics.median(t):.3f} {rows[0][1]} {float(rows[0][2]):.3f} {min(t):.3f} {max(t):.3f}")
+PY
+}
+
+# ipopt N -> prints "median_ms iterations final_mass"
+ipopt() {
+    local n="$1" rc=0
+    "$PY" bench/reference/nlp_reference.py --scenario "$SCENARIO" --problem P2 \
+        --nodes "$n" --repeat "$REPEAT" --json > "$TMP/ref_$n.json" 2> "$TMP/ref_$n.err" || rc=$?
+    [ "$rc" -eq 0 ] || { cat "$TMP/ref_$n.err" >&2; die "IPOPT reference at N=$n exited with $rc"; }
+    python3 - "$TMP/ref_$n.json" <<'PY' || die "IPOPT reference at N=$n: bad output"
+import json, sys
+d = json.load(open(sys.argv[1]))
+if d.get("success") is not True:
+    sys.exit(f"IPOPT did not converge: {d.get('status')!r}")
+if d.get("problem") != "P2" or int(d.get("repeat", 0)) < 10:
+    sys.exit(f"unexpected reference run: problem {d.get('problem')!r}, repeat {d.get('repeat')!r}")
+print(f"{float(d['solve_time_ms']):.3f} {d['ipopt_iterations']} {float(d['final_mass_kg']):.3f}")
+PY
+}
+
+echo "bench/compare.sh  scenario=$SCENARIO  repeat=$REPEAT  $(date -u '+%Y-%m-%d %H:%M UTC')"
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
+echo
+printf '%4s | %14s %6s %12s | %14s %6s %12s | %13s\n' \
+    N "ours med [ms]" "iters" "m_f [kg]" "IPOPT med [ms]" "iters" "m_f [kg]" "ours/IPOPT"
+printf '%s\n' "-----+-------------------------------------+-------------------------------------+--------------"
+for n in "${NODES[@]}"; do
+    read -r o_ms o_it o_mf o_min o_max < <(ours "$n") || die "ours at N=$n failed"
+    read -r r_ms r_it r_mf < <(ipopt "$n") || die "IPOPT at N=$n failed"
+    [ -n "${o_ms:-}" ] && [ -n "${r_ms:-}" ] || die "missing timing at N=$n"
+    ratio=$(python3 -c "print(f'{$o_ms / $r_ms:.2f}')")
+    printf '%4s | %14s %6s %12s | %14s %6s %12s | %12sx\n' \
+        "$n" "$o_ms" "$o_it" "$o_mf" "$r_ms" "$r_it" "$r_mf" "$ratio"
+    echo "       (ours: min $o_min ms, max $o_max ms over $REPEAT runs)" >&2
+done
+echo
+echo "ratio < 1: ours faster; > 1: ours slower. Both medians over $REPEAT solves."

@@ -1,0 +1,126 @@
+//! Criterion benchmarks of the solver's building blocks (issue 5).
+//!
+//! Run with `cargo bench -p bellyflop --bench solver`. Only the public API is
+//! used. Sample counts are kept small so the whole run takes a few minutes on
+//! a 2-core machine; see BENCHMARKS.md for the latest numbers.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use bellyflop::dynamics::linearize;
+use bellyflop::radau::Lgr;
+use bellyflop::scvx::{straight_line, Silent};
+use bellyflop::transcription::Transcription;
+use bellyflop::{Formulation, Scenario};
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};
+
+/// The paper's case at `n` LGR points.
+fn paper(n: usize) -> Scenario {
+    let mut s = Scenario::paper();
+    s.discretization.nodes = n;
+    s
+}
+
+/// The transcription of the first SCvx subproblem of a cold solve: the relaxed
+/// P4 (`Formulation::Paper`) without the ground bound, as `bellyflop::solve`
+/// builds it for its first phase.
+fn first_subproblem(n: usize) -> (Transcription, bellyflop::transcription::Trajectory, f64) {
+    let mut s = paper(n);
+    s.solver.formulation = Formulation::Paper;
+    let tr = Transcription::new(&s, n).without_ground_bound();
+    let d = &s.discretization;
+    let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
+    (tr, guess, s.solver.trust_region_initial)
+}
+
+/// Full cold solve of the paper's case to convergence (default settings).
+fn cold_solve(c: &mut Criterion) {
+    let mut g = c.benchmark_group("cold_solve");
+    // Flat sampling: a solve at N = 60 takes seconds, so each sample is one
+    // (or a few) solves rather than criterion's linearly growing batches.
+    g.sampling_mode(SamplingMode::Flat);
+    g.sample_size(10);
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(5));
+    for n in [10, 20, 40, 60] {
+        let s = paper(n);
+        g.bench_with_input(BenchmarkId::from_parameter(n), &s, |b, s| {
+            b.iter(|| {
+                let sol = bellyflop::solve(black_box(s), &mut Silent);
+                assert_eq!(sol.status, bellyflop::Status::Solved, "N = {n}");
+                sol
+            })
+        });
+    }
+    g.finish();
+}
+
+/// One subproblem: assemble at the straight-line guess, then solve with Clarabel.
+fn subproblem(c: &mut Criterion) {
+    let mut g = c.benchmark_group("subproblem");
+    g.sampling_mode(SamplingMode::Flat);
+    g.sample_size(10);
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(5));
+    for n in [20, 40] {
+        let (tr, guess, radius) = first_subproblem(n);
+        g.bench_function(BenchmarkId::from_parameter(n), |b| {
+            b.iter(|| {
+                let data = tr.assemble(black_box(&guess), radius, 0.0);
+                tr.solve(&data).expect("subproblem solves")
+            })
+        });
+    }
+    g.finish();
+}
+
+/// Subproblem assembly alone (linearization, sparse matrices, cones).
+fn assembly(c: &mut Criterion) {
+    let mut g = c.benchmark_group("assembly");
+    g.sample_size(20);
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(3));
+    for n in [20, 40] {
+        let (tr, guess, radius) = first_subproblem(n);
+        g.bench_function(BenchmarkId::from_parameter(n), |b| {
+            b.iter(|| tr.assemble(black_box(&guess), radius, 0.0))
+        });
+    }
+    g.finish();
+}
+
+/// One Jacobian evaluation (`linearize`: f, ∂f/∂x, ∂f/∂u by forward-mode AD)
+/// at the straight-line guess's middle node, in both formulations.
+fn jacobian(c: &mut Criterion) {
+    let mut g = c.benchmark_group("jacobian");
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(2));
+    for form in [Formulation::Paper, Formulation::Exact] {
+        let mut s = paper(20);
+        s.solver.formulation = form;
+        let tr = Transcription::new(&s, 20);
+        let d = &s.discretization;
+        let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
+        let (x, u) = (guess.x[10], guess.u[10]);
+        g.bench_function(BenchmarkId::from_parameter(format!("{form:?}")), |b| {
+            b.iter(|| linearize(&tr.model, form, black_box(&x), black_box(&u)))
+        });
+    }
+    g.finish();
+}
+
+/// LGR setup: nodes, weights and the differentiation matrix.
+fn lgr_setup(c: &mut Criterion) {
+    let mut g = c.benchmark_group("lgr_setup");
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(2));
+    for n in [20, 40, 100] {
+        g.bench_function(BenchmarkId::from_parameter(n), |b| {
+            b.iter(|| Lgr::new(black_box(n)))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, lgr_setup, jacobian, assembly, subproblem, cold_solve);
+criterion_main!(benches);
