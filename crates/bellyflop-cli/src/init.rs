@@ -180,6 +180,8 @@ pub const DOCS: &[Doc] = &[
     // Discretization (Section 3.2).
     doc!("discretization", "nodes", "", Allowed::Count { lo: 4, hi: 100 },
         "Number of LGR collocation points N (the paper uses 20)."),
+    doc!("discretization", "intervals", "", Allowed::Count { lo: 1, hi: 50 },
+        "LGR mesh intervals M, at most N/2 (1, the default, is the paper's global mesh; more make each subproblem cheaper but SCvx slower to converge)."),
     doc!("discretization", "tf_guess_s", "s", open_closed(0.0, 1000.0),
         "Initial guess of the final time t_f (t_f itself is optimized)."),
     doc!("discretization", "final_mass_guess_kg", "kg", MASS,

@@ -52,6 +52,10 @@ struct SolveArgs {
     /// Number of LGR collocation points N (4 to 100); overrides the scenario.
     #[arg(long)]
     nodes: Option<usize>,
+    /// Number of LGR mesh intervals M (1 to N/2; 1 is the paper's global
+    /// mesh); overrides the scenario.
+    #[arg(long)]
+    intervals: Option<usize>,
     /// Thrust-direction formulation; overrides the scenario.
     #[arg(long, value_enum)]
     formulation: Option<FormulationArg>,
@@ -88,6 +92,9 @@ fn load(args: &SolveArgs) -> Result<Scenario, bellyflop::InputError> {
     };
     if let Some(n) = args.nodes {
         scenario.discretization.nodes = n;
+    }
+    if let Some(m) = args.intervals {
+        scenario.discretization.intervals = m;
     }
     if let Some(f) = args.formulation {
         scenario.solver.formulation = match f {
@@ -161,7 +168,11 @@ fn print_summary(scenario: &Scenario, s: &Solution) {
         println!("reason        {}", s.message);
     }
     let form = s.formulation_label(scenario.solver.formulation);
-    println!("formulation   {form}, N = {}", s.nodes);
+    let mesh = match s.intervals {
+        1 => "global mesh".to_string(),
+        m => format!("{m} intervals"),
+    };
+    println!("formulation   {form}, N = {}, {mesh}", s.nodes);
     println!("t_f           {:.4} s", s.tf_s);
     println!(
         "final mass    {:.1} kg (fuel {:.1} kg)",

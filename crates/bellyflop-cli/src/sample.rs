@@ -1,8 +1,8 @@
 //! Dense sampling of a solution from its LGR interpolants.
 //!
 //! The states are the degree-N Lagrange polynomials through the N + 1 LGR
-//! nodes (`Lgr::interpolate_states`); the controls are the degree-(N − 1)
-//! polynomials through the N collocation points (`Lgr::interpolate_controls`).
+//! nodes (`Mesh::interpolate_states`, piecewise on an hp mesh); the controls are the degree-(N − 1)
+//! polynomials through the N collocation points (`Mesh::interpolate_controls`).
 //! The controls are not collocated on (τ_N, 1]; there they hold the value of
 //! the last collocation point, as the `Solution` arrays do at t_f (the
 //! extrapolated polynomial can overshoot the thrust bounds). Between nodes these
@@ -10,7 +10,7 @@
 //! values are optimized.
 
 use bellyflop::dynamics::{self, ix};
-use bellyflop::radau::Lgr;
+use bellyflop::mesh::Mesh;
 use bellyflop::Solution;
 
 /// A trajectory sampled in time, in SI units and radians.
@@ -71,7 +71,7 @@ impl Dense {
         let per = per_interval.max(1);
         let tr = &s.trajectory;
         let n = tr.x.len() - 1;
-        let lgr = Lgr::new(n);
+        let lgr = Mesh::uniform(n, s.intervals);
         let nu = dynamics::control_dim(s.formulation);
 
         let state = |c: usize| tr.x.iter().map(|x| x[c]).collect::<Vec<f64>>();

@@ -27,7 +27,7 @@ fn paper(n: usize) -> Scenario {
 fn first_subproblem(n: usize) -> (Transcription, bellyflop::transcription::Trajectory, f64) {
     let mut s = paper(n);
     s.solver.formulation = Formulation::Paper;
-    let tr = Transcription::new(&s, n).without_ground_bound();
+    let tr = Transcription::new(&s).without_ground_bound();
     let d = &s.discretization;
     let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
     (tr, guess, s.solver.trust_region_initial)
@@ -98,7 +98,7 @@ fn jacobian(c: &mut Criterion) {
     for form in [Formulation::Paper, Formulation::Exact] {
         let mut s = paper(20);
         s.solver.formulation = form;
-        let tr = Transcription::new(&s, 20);
+        let tr = Transcription::new(&s);
         let d = &s.discretization;
         let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
         let (x, u) = (guess.x[10], guess.u[10]);

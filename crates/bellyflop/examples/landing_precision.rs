@@ -15,10 +15,10 @@
 //! A first argument `paper` solves with the paper's formulation instead of the
 //! default one.
 use bellyflop::dynamics::Model;
+use bellyflop::mesh::Mesh;
 use bellyflop::propagate::{
     integrate_controls, landing_error, propagate, Controls, Interpolation, NozzleModel, Options,
 };
-use bellyflop::radau::Lgr;
 use bellyflop::scvx::Silent;
 use bellyflop::Scenario;
 
@@ -80,7 +80,7 @@ fn main() {
         }
         // The collocation polynomials themselves, sampled on a fine grid and
         // integrated with linear interpolation between samples.
-        let lgr = Lgr::new(n);
+        let lgr = Mesh::uniform(n, sol.intervals);
         let samples = 4000;
         let t: Vec<f64> = (0..=samples)
             .map(|i| sol.tf_s * i as f64 / samples as f64)

@@ -4,14 +4,20 @@
 //! - [`scenario`], [`validate`]: parameters from TOML, checked before anything runs;
 //! - [`dynamics`]: the models of Eq. (1)–(3), (8), (21)–(22) and their Jacobians;
 //! - [`radau`]: LGR nodes, weights, differentiation and interpolation;
+//! - [`mesh`]: the global LGR mesh or an hp mesh of LGR intervals;
 //! - [`transcription`]: the convex subproblem P4 as conic data for Clarabel;
+//! - [`conic`]: Clarabel, set up once per structure and updated in place;
 //! - [`scvx`]: the successive-convexification driver loop;
 //! - [`solution`]: status, physical trajectory, checks and history;
+//! - [`replan`]: warm re-plans from the shifted previous plan;
 //! - [`propagate`]: landing precision by re-integrating the nonlinear model.
+pub mod conic;
 pub mod dynamics;
 pub mod error;
+pub mod mesh;
 pub mod propagate;
 pub mod radau;
+pub mod replan;
 pub mod scenario;
 pub mod scvx;
 pub mod solution;

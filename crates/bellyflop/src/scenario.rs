@@ -97,10 +97,18 @@ pub enum Formulation {
 pub struct Discretization {
     /// Number of LGR collocation points N (4 to 100).
     pub nodes: usize,
+    /// Number of LGR mesh intervals M (1 to N/2; see [`crate::mesh`]). 1 is the
+    /// paper's global mesh; more intervals make each subproblem far cheaper.
+    #[serde(default = "one")]
+    pub intervals: usize,
     /// Initial guess of the final time t_f [s].
     pub tf_guess_s: f64,
     /// Initial guess of the final mass [kg] for the straight-line guess.
     pub final_mass_guess_kg: f64,
+}
+
+fn one() -> usize {
+    1
 }
 
 /// SCvx settings (Section 3.4, with the trust-region rule of Mao et al. 2016).

@@ -8,6 +8,7 @@
 
 use std::time::Instant;
 
+use crate::conic::ConicSolver;
 use crate::dynamics::{ix, NU_MAX, NX};
 use crate::scenario::{Formulation, Scenario, SolverSettings};
 use crate::solution::{self, IterationRecord, Solution, Status};
@@ -41,7 +42,7 @@ pub fn straight_line(tr: &Transcription, tf_s: f64, final_mass_kg: f64) -> Traje
     end[ix::OMEGA] = final_mass_kg.ln();
     end[ix::DELTA] = 0.0;
     let x: Vec<[f64; NX]> = tr
-        .lgr
+        .mesh
         .nodes
         .iter()
         .map(|&tau| {
@@ -147,7 +148,7 @@ fn infeasibility_reason(tr: &Transcription, t: &Trajectory, vc: f64) -> String {
     let mut reason = format!(
         "no trajectory meets the dynamics and boundary conditions: SCvx settled with virtual control {vc:.2e} (scaled); the largest violation is in the {} equation at t = {:.2} s",
         STATE_NAMES[comp],
-        tr.lgr.time_s(node, t.tf_s)
+        tr.mesh.time_s(node, t.tf_s)
     );
     let n = tr.layout.n;
     let mf = t.x[n][ix::OMEGA].exp();
@@ -192,7 +193,7 @@ pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
         relaxed.solver.shrink = RELAXED_SHRINK;
         // Without the ground bound: it bends the relaxed iteration's path
         // although it is inactive at the optimum; the answer is still checked.
-        let tr = Transcription::new(&relaxed, d.nodes).without_ground_bound();
+        let tr = Transcription::new(&relaxed).without_ground_bound();
         let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
         let first = solve_from(&tr, guess, &relaxed.solver, observer);
         if first.status == Status::Solved || first.iterations >= scenario.solver.max_iterations {
@@ -200,7 +201,7 @@ pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
         }
         spent = Some(first);
     }
-    let tr = Transcription::new(scenario, d.nodes);
+    let tr = Transcription::new(scenario);
     let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
     let mut settings = scenario.solver.clone();
     if let Some(first) = &spent {
@@ -235,6 +236,19 @@ pub fn solve_from(
     settings: &SolverSettings,
     observer: &mut dyn Observer,
 ) -> Solution {
+    solve_from_with(tr, guess, settings, observer, &mut ConicSolver::new())
+}
+
+/// [`solve_from`] with a caller-owned conic solver, so that successive solves
+/// of the same structure (the re-plans of a guidance loop) skip Clarabel's
+/// setup.
+pub fn solve_from_with(
+    tr: &Transcription,
+    guess: Trajectory,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+    conic: &mut ConicSolver,
+) -> Solution {
     let start = Instant::now();
     let mut reference = guess;
     let mut z_ref = tr.to_scaled(&reference);
@@ -248,7 +262,7 @@ pub fn solve_from(
     for iteration in 1..=settings.max_iterations {
         let t0 = Instant::now();
         let data = tr.assemble(&reference, radius, settings.proximal_weight);
-        let sub = match tr.solve(&data) {
+        let sub = match tr.solve_with(conic, &data) {
             Ok(s) => s,
             Err(msg) => {
                 // A failed subproblem is treated like a rejected step.

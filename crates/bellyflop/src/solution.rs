@@ -109,6 +109,8 @@ pub struct Solution {
     /// every physical check.
     pub formulation: Formulation,
     pub nodes: usize,
+    /// LGR mesh intervals (1: the paper's global mesh).
+    pub intervals: usize,
     pub tf_s: f64,
     pub final_mass_kg: f64,
     pub fuel_kg: f64,
@@ -199,12 +201,13 @@ impl Solution {
             message,
             formulation: tr.form,
             nodes: n,
+            intervals: tr.mesh.intervals.len(),
             tf_s: t.tf_s,
             final_mass_kg,
             fuel_kg: mass_kg[0] - final_mass_kg,
             iterations: history.len(),
             solve_time_ms,
-            t_s: (0..=n).map(|k| tr.lgr.time_s(k, t.tf_s)).collect(),
+            t_s: (0..=n).map(|k| tr.mesh.time_s(k, t.tf_s)).collect(),
             x_m: col(ix::X),
             z_m: col(ix::Z),
             vx_mps: col(ix::VX),

@@ -11,10 +11,11 @@
 //! Their weighted sum is the exact penalty that keeps every subproblem feasible.
 
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
+use clarabel::solver::{SolverStatus, SupportedConeT};
 
+use crate::conic::ConicSolver;
 use crate::dynamics::{self, ix, Model, NU_MAX, NX};
-use crate::radau::Lgr;
+use crate::mesh::Mesh;
 use crate::scenario::{Formulation, Scenario};
 
 /// A trajectory in physical units (SI, radians, ω = ln m) on the LGR grid.
@@ -141,7 +142,7 @@ const TIME_SCALE_FACTOR: f64 = 1.7;
 pub struct Transcription {
     pub model: Model,
     pub form: Formulation,
-    pub lgr: Lgr,
+    pub mesh: Mesh,
     pub layout: Layout,
     pub scaling: Scaling,
     /// Initial state (all 8 LCvx states) and terminal x, z, Vx, Vz, θ, w, physical.
@@ -151,6 +152,11 @@ pub struct Transcription {
     pub penalty: f64,
     /// Whether z ≥ z_f is imposed at every node (see `set_bounds`).
     pub ground_bound: bool,
+    /// Structural nonzeros of ∂f/∂x and ∂f/∂u: `assemble` emits exactly these
+    /// entries, zero or not, so every subproblem has the same sparsity and
+    /// Clarabel can be updated in place ([`crate::conic`]).
+    pattern_a: [[bool; NX]; NX],
+    pattern_b: [[bool; NU_MAX]; NX],
     /// Scaled bounds of the trajectory variables (±∞ where free).
     lo: Vec<f64>,
     hi: Vec<f64>,
@@ -235,7 +241,10 @@ impl Rows {
 }
 
 impl Transcription {
-    pub fn new(s: &Scenario, nodes: usize) -> Self {
+    /// The transcription of `s` on its mesh (`s.discretization`: N points over
+    /// M intervals). `s` must have passed validation.
+    pub fn new(s: &Scenario) -> Self {
+        let nodes = s.discretization.nodes;
         let model = Model::new(&s.vehicle, &s.environment);
         let form = s.solver.formulation;
         let layout = Layout {
@@ -269,7 +278,7 @@ impl Transcription {
             t.pitch_rate_degps.to_radians(),
         ];
         let mut tr = Transcription {
-            lgr: Lgr::new(nodes),
+            mesh: Mesh::uniform(nodes, s.discretization.intervals),
             model,
             form,
             layout,
@@ -278,11 +287,45 @@ impl Transcription {
             xf,
             penalty: s.solver.virtual_control_weight,
             ground_bound: true,
+            pattern_a: [[false; NX]; NX],
+            pattern_b: [[false; NU_MAX]; NX],
             lo: vec![],
             hi: vec![],
         };
         tr.set_bounds();
+        tr.set_pattern();
         tr
+    }
+
+    /// The Jacobians' structural nonzeros: the union of the nonzeros at two
+    /// generic points (no component zero, angles off every multiple of π/4).
+    fn set_pattern(&mut self) {
+        let points: [([f64; NX], [f64; NU_MAX]); 2] = [
+            (
+                [13.0, 320.0, 7.0, -41.0, 0.71, 0.053, 11.6, 0.031],
+                [2.1, 6.3, 7.4, 0.017],
+            ),
+            (
+                [-5.0, 80.0, -3.0, -12.0, 1.37, -0.021, 11.5, -0.07],
+                [-1.3, 9.2, 9.9, -0.04],
+            ),
+        ];
+        let nu = self.layout.nu;
+        for (x, u) in points {
+            let mut u = u;
+            if nu == 2 {
+                u = [u[2], u[3], 0.0, 0.0];
+            }
+            let lin = dynamics::linearize(&self.model, self.form, &x, &u[..nu]);
+            for c in 0..NX {
+                for c2 in 0..NX {
+                    self.pattern_a[c][c2] |= lin.a[c][c2] != 0.0;
+                }
+                for c2 in 0..nu {
+                    self.pattern_b[c][c2] |= lin.b[c][c2] != 0.0;
+                }
+            }
+        }
     }
 
     /// The same transcription without the ground bound z ≥ z_f.
@@ -407,7 +450,8 @@ impl Transcription {
                 let f =
                     dynamics::rhs_lcvx(&self.model, self.form, &t.x[i], &t.u[i][..self.layout.nu]);
                 std::array::from_fn(|c| {
-                    let dx: f64 = (0..=n).map(|j| self.lgr.d(i, j) * t.x[j][c]).sum();
+                    let (s0, row) = self.mesh.d_row(i);
+                    let dx: f64 = row.iter().zip(&t.x[s0..]).map(|(d, x)| d * x[c]).sum();
                     (dx - 0.5 * t.tf_s * f[c]) / self.scaling.x_scale[c]
                 })
             })
@@ -484,20 +528,23 @@ impl Transcription {
             );
             for c in 0..NX {
                 let inv = 1.0 / sc.x_scale[c];
-                for j in 0..=n {
-                    eq.entry(l.x(j, c), self.lgr.d(i, j));
+                let (s0, row) = self.mesh.d_row(i);
+                for (j, &d) in row.iter().enumerate() {
+                    eq.entry(l.x(s0 + j, c), d);
                 }
                 let mut rhs = 0.0;
                 for c2 in 0..NX {
                     let coef = -0.5 * tf * lin.a[c][c2] * sc.x_scale[c2] * inv;
-                    if coef != 0.0 {
+                    debug_assert!(self.pattern_a[c][c2] || coef == 0.0);
+                    if self.pattern_a[c][c2] {
                         eq.entry(l.x(i, c2), coef);
                     }
                     rhs += coef * zref[l.x(i, c2)];
                 }
                 for c2 in 0..l.nu {
                     let coef = -0.5 * tf * lin.b[c][c2] * sc.u_scale[c2] * inv;
-                    if coef != 0.0 {
+                    debug_assert!(self.pattern_b[c][c2] || coef == 0.0);
+                    if self.pattern_b[c][c2] {
                         eq.entry(l.u(i, c2), coef);
                     }
                     rhs += coef * zref[l.u(i, c2)];
@@ -669,20 +716,18 @@ impl Transcription {
 
     /// Solve one subproblem with Clarabel; an error names the solver status when it fails.
     pub fn solve(&self, data: &ConicData) -> Result<SubproblemResult, String> {
+        crate::conic::solve_once(self, data)
+    }
+
+    /// Solve one subproblem with a solver kept across iterations (set up on
+    /// its first use, then updated in place).
+    pub fn solve_with(
+        &self,
+        conic: &mut ConicSolver,
+        data: &ConicData,
+    ) -> Result<SubproblemResult, String> {
         let l = self.layout;
-        let settings = DefaultSettings {
-            verbose: false,
-            ..DefaultSettings::default()
-        };
-        let mut solver =
-            DefaultSolver::new(&data.p, &data.q, &data.a, &data.b, &data.cones, settings)
-                .map_err(|e| format!("Clarabel setup failed: {e}"))?;
-        solver.solve();
-        let sol = &solver.solution;
-        match sol.status {
-            SolverStatus::Solved | SolverStatus::AlmostSolved => {}
-            other => return Err(format!("Clarabel status {other:?}")),
-        }
+        let sol = conic.solve(data)?;
         let z = sol.x[..l.n_primal()].to_vec();
         let mut vc = 0.0f64;
         for i in 0..l.n {

@@ -146,6 +146,8 @@ const GIMBAL: Range = Range::open(-90.0, 90.0, "deg");
 /// flip (the paper uses 20), at most 100, beyond which the dense
 /// differentiation matrix is ill-conditioned and the subproblem is large.
 const NODES: (usize, usize) = (4, 100);
+/// LGR mesh intervals M (further limited to N/2).
+const INTERVALS: (usize, usize) = (1, 50);
 /// Final-time guess t_f: positive, at most 1000 s (a landing burn lasts tens
 /// of seconds; the paper's is about 12 s).
 const TF_GUESS: Range = Range::open_closed(0.0, 1000.0, "s");
@@ -266,6 +268,18 @@ fn terminal(t: &TerminalState) -> Result<(), InputError> {
 /// Discretization ranges: see [`NODES`], [`TF_GUESS`], [`MASS`].
 fn discretization(d: &Discretization) -> Result<(), InputError> {
     count_in_range("discretization.nodes", d.nodes, NODES)?;
+    count_in_range("discretization.intervals", d.intervals, INTERVALS)?;
+    if d.intervals > d.nodes / 2 {
+        return Err(InputError::Inconsistent {
+            field: "discretization.intervals".into(),
+            value: d.intervals as f64,
+            reason: format!(
+                "each interval needs at least 2 of the N = {} collocation points, so at most {} intervals",
+                d.nodes,
+                d.nodes / 2
+            ),
+        });
+    }
     check_all(&[
         ("discretization.tf_guess_s", d.tf_guess_s, TF_GUESS),
         (

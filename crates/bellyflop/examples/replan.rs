@@ -1,0 +1,49 @@
+//! Warm re-plan against a cold solve (issue 5): solve the paper's case, move
+//! 0.5 s along the plan, and re-plan from the plan's own state there.
+//!
+//! `cargo run --release -p bellyflop --example replan [N ...]`
+//!
+//! Prints, per N, the iterations and wall time of the cold solve and of the
+//! warm re-plan, the re-plan's final mass against the cold plan's, and whether
+//! both are `solved`. Timing lives in the criterion bench (`warm_replan`);
+//! these are single runs.
+
+use bellyflop::replan::{initial_state, Planner};
+use bellyflop::scvx::Silent;
+use bellyflop::Scenario;
+
+fn main() {
+    let ns: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let ns = if ns.is_empty() { vec![10, 20, 40] } else { ns };
+    println!("  N  cold its    ms  status   | warm its    ms  status   m_f change");
+    for n in ns {
+        let mut s = Scenario::paper();
+        s.discretization.nodes = n;
+        let mut planner = Planner::new(s);
+        let cold = planner.cold(&mut Silent);
+        let plan = planner.plan.clone().expect("cold solve solved");
+        let state = initial_state(&plan.state_at(0.5));
+        let warm = planner
+            .replan(&state, 0.5, &mut Silent)
+            .expect("valid state");
+        println!(
+            "{n:>3}  {:>8} {:>6.1}  {:<8} | {:>8} {:>6.1}  {:<8} {:+.2} kg",
+            cold.iterations,
+            cold.solve_time_ms,
+            cold.status.as_str(),
+            warm.iterations,
+            warm.solve_time_ms,
+            warm.status.as_str(),
+            warm.final_mass_kg - cold.final_mass_kg,
+        );
+        for h in &warm.history {
+            println!(
+                "       warm iter {}: step {:.2e} defect {:.2e} vc {:.2e} rho {:+.3} ipm {}",
+                h.iteration, h.step, h.defect, h.virtual_control, h.rho, h.ipm_iterations
+            );
+        }
+    }
+}
