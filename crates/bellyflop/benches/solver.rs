@@ -7,8 +7,10 @@
 use std::hint::black_box;
 use std::time::Duration;
 
+use bellyflop::conic::ConicSolver;
 use bellyflop::dynamics::linearize;
 use bellyflop::radau::Lgr;
+use bellyflop::replan::{initial_state, Planner};
 use bellyflop::scvx::{straight_line, Silent};
 use bellyflop::transcription::Transcription;
 use bellyflop::{Formulation, Scenario};
@@ -55,6 +57,57 @@ fn cold_solve(c: &mut Criterion) {
     g.finish();
 }
 
+/// Cold solve on an hp mesh (N points over M intervals): each subproblem is
+/// cheaper, but SCvx needs more iterations there (see BENCHMARKS.md).
+fn cold_solve_hp(c: &mut Criterion) {
+    let mut g = c.benchmark_group("cold_solve_hp");
+    g.sampling_mode(SamplingMode::Flat);
+    g.sample_size(10);
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(5));
+    for (n, m) in [(20, 4), (40, 8)] {
+        let mut s = paper(n);
+        s.discretization.intervals = m;
+        g.bench_with_input(
+            BenchmarkId::from_parameter(format!("{n}x{m}")),
+            &s,
+            |b, s| {
+                b.iter(|| {
+                    let sol = bellyflop::solve(black_box(s), &mut Silent);
+                    assert_eq!(sol.status, bellyflop::Status::Solved, "N = {n}, M = {m}");
+                    sol
+                })
+            },
+        );
+    }
+    g.finish();
+}
+
+/// Warm re-plan 0.5 s along the cold plan, from the plan's own state there,
+/// with the planner's conic solvers already set up (as in a guidance loop).
+fn warm_replan(c: &mut Criterion) {
+    let mut g = c.benchmark_group("warm_replan");
+    g.sampling_mode(SamplingMode::Flat);
+    g.sample_size(10);
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(5));
+    for n in [20, 40] {
+        let mut planner = Planner::new(paper(n));
+        planner.cold(&mut Silent);
+        let plan = planner.plan.clone().expect("cold solve solved");
+        let state = initial_state(&plan.state_at(0.5));
+        g.bench_function(BenchmarkId::from_parameter(n), |b| {
+            b.iter(|| {
+                planner.plan = Some(plan.clone());
+                let sol = planner.replan(black_box(&state), 0.5, &mut Silent).unwrap();
+                assert_eq!(sol.status, bellyflop::Status::Solved, "N = {n}");
+                sol
+            })
+        });
+    }
+    g.finish();
+}
+
 /// One subproblem: assemble at the straight-line guess, then solve with Clarabel.
 fn subproblem(c: &mut Criterion) {
     let mut g = c.benchmark_group("subproblem");
@@ -64,10 +117,18 @@ fn subproblem(c: &mut Criterion) {
     g.measurement_time(Duration::from_secs(5));
     for n in [20, 40] {
         let (tr, guess, radius) = first_subproblem(n);
-        g.bench_function(BenchmarkId::from_parameter(n), |b| {
+        g.bench_function(BenchmarkId::new("fresh", n), |b| {
             b.iter(|| {
                 let data = tr.assemble(black_box(&guess), radius, 0.0);
                 tr.solve(&data).expect("subproblem solves")
+            })
+        });
+        // The same subproblem through a solver set up once and updated in place.
+        let mut conic = ConicSolver::new();
+        g.bench_function(BenchmarkId::new("in_place", n), |b| {
+            b.iter(|| {
+                let data = tr.assemble(black_box(&guess), radius, 0.0);
+                tr.solve_with(&mut conic, &data).expect("subproblem solves")
             })
         });
     }
@@ -122,5 +183,14 @@ fn lgr_setup(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, lgr_setup, jacobian, assembly, subproblem, cold_solve);
+criterion_group!(
+    benches,
+    lgr_setup,
+    jacobian,
+    assembly,
+    subproblem,
+    cold_solve,
+    cold_solve_hp,
+    warm_replan
+);
 criterion_main!(benches);
