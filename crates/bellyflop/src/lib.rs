@@ -7,13 +7,15 @@
 //! - [`transcription`]: the convex subproblem P4 as conic data for Clarabel;
 //! - [`scvx`]: the successive-convexification driver loop;
 //! - [`solution`]: status, physical trajectory, checks and history;
-//! - [`propagate`]: landing precision by re-integrating the nonlinear model.
+//! - [`propagate`]: landing precision by re-integrating the nonlinear model;
+//! - [`sim`]: the truth plant and Monte-Carlo dispersions for closed-loop guidance.
 pub mod dynamics;
 pub mod error;
 pub mod propagate;
 pub mod radau;
 pub mod scenario;
 pub mod scvx;
+pub mod sim;
 pub mod solution;
 pub mod transcription;
 pub mod validate;
