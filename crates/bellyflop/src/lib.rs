@@ -10,16 +10,20 @@
 //! - [`scvx`]: the successive-convexification driver loop;
 //! - [`solution`]: status, physical trajectory, checks and history;
 //! - [`replan`]: warm re-plans from the shifted previous plan;
-//! - [`propagate`]: landing precision by re-integrating the nonlinear model.
+//! - [`propagate`]: landing precision by re-integrating the nonlinear model;
+//! - [`sim`]: the truth plant and Monte-Carlo dispersions for closed-loop guidance;
+//! - [`guidance`]: the closed loop — navigation, re-planning, control.
 pub mod conic;
 pub mod dynamics;
 pub mod error;
+pub mod guidance;
 pub mod mesh;
 pub mod propagate;
 pub mod radau;
 pub mod replan;
 pub mod scenario;
 pub mod scvx;
+pub mod sim;
 pub mod solution;
 pub mod transcription;
 pub mod validate;
