@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # Side-by-side solve times: ours (LGR + SCvx + Clarabel) against the CasADi + IPOPT
-# P2 reference (bench/reference/nlp_reference.py), same scenario and N, one run.
+# P2 reference (bench/reference/nlp_reference.py), same scenario, N and mesh, one run.
 #
 #   bench/compare.sh [N ...]        (default: 20 40)
 #
-# Environment: SCENARIO (default scenarios/paper.toml), REPEAT (default 10, >= 10).
+# Environment: SCENARIO (default scenarios/paper.toml), REPEAT (default 10, >= 10),
+# INTERVALS (default 1): LGR mesh intervals M, passed as `--intervals M` to both
+# sides (1 = the paper's global mesh; M > 1 = hp mesh, needs N / M >= 2 for every
+# N). It overrides the scenario's discretization.intervals on both sides.
 # Ours: the CLI's `solve_time_ms` (the SCvx loop, Transcription setup excluded)
 # over REPEAT separate runs of `bellyflop solve --json --quiet`; median reported.
 # IPOPT: the reference's `solve_time_ms`, itself the median of REPEAT solve calls
@@ -16,14 +19,19 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 SCENARIO="${SCENARIO:-scenarios/paper.toml}"
 REPEAT="${REPEAT:-10}"
+INTERVALS="${INTERVALS:-1}"
 NODES=("$@")
 [ ${#NODES[@]} -eq 0 ] && NODES=(20 40)
 
 die() { echo "compare.sh: error: $*" >&2; exit 1; }
 [ "$REPEAT" -ge 10 ] 2>/dev/null || die "REPEAT must be an integer >= 10 (got '$REPEAT')"
 [ -f "$SCENARIO" ] || die "scenario '$SCENARIO' not found"
+[[ "$INTERVALS" =~ ^[0-9]+$ ]] && [ "$INTERVALS" -ge 1 ] \
+    || die "INTERVALS must be an integer >= 1 (got '$INTERVALS')"
 for n in "${NODES[@]}"; do
     [[ "$n" =~ ^[0-9]+$ ]] || die "N must be a positive integer (got '$n')"
+    [ $((n / INTERVALS)) -ge 2 ] \
+        || die "N=$n over INTERVALS=$INTERVALS leaves fewer than 2 points per interval (need INTERVALS <= $((n / 2)))"
 done
 
 VENV="bench/reference/.venv"
@@ -48,15 +56,18 @@ ours() {
     : > "$TMP/ours_$n"
     for ((i = 1; i <= REPEAT; i++)); do
         rc=0
-        "$BIN" solve --scenario "$SCENARIO" --json --quiet --nodes "$n" > "$TMP/run.json" || rc=$?
-        [ "$rc" -eq 0 ] || die "ours at N=$n, run $i: bellyflop exited with $rc"
-        python3 - "$TMP/run.json" "$n" >> "$TMP/ours_$n" <<'PY' || die "ours at N=$n: bad output"
+        "$BIN" solve --scenario "$SCENARIO" --json --quiet --nodes "$n" \
+            --intervals "$INTERVALS" > "$TMP/run.json" || rc=$?
+        [ "$rc" -eq 0 ] || die "ours at N=$n M=$INTERVALS, run $i: bellyflop exited with $rc"
+        python3 - "$TMP/run.json" "$n" "$INTERVALS" >> "$TMP/ours_$n" <<'PY' || die "ours at N=$n M=$INTERVALS: bad output"
 import json, sys
 d = json.load(open(sys.argv[1]))
 if d.get("status") != "solved":
     sys.exit(f"status {d.get('status')!r}: {d.get('message')}")
 if d.get("nodes") != int(sys.argv[2]):
     sys.exit(f"nodes {d.get('nodes')} != {sys.argv[2]}")
+if "intervals" in d and d["intervals"] != int(sys.argv[3]):
+    sys.exit(f"intervals {d['intervals']} != {sys.argv[3]}")
 print(d["solve_time_ms"], d["iterations"], d["final_mass_kg"])
 PY
     done
@@ -72,33 +83,50 @@ PY
 ipopt() {
     local n="$1" rc=0
     "$PY" bench/reference/nlp_reference.py --scenario "$SCENARIO" --problem P2 \
-        --nodes "$n" --repeat "$REPEAT" --json > "$TMP/ref_$n.json" 2> "$TMP/ref_$n.err" || rc=$?
-    [ "$rc" -eq 0 ] || { cat "$TMP/ref_$n.err" >&2; die "IPOPT reference at N=$n exited with $rc"; }
-    python3 - "$TMP/ref_$n.json" <<'PY' || die "IPOPT reference at N=$n: bad output"
+        --nodes "$n" --intervals "$INTERVALS" --repeat "$REPEAT" --json \
+        > "$TMP/ref_$n.json" 2> "$TMP/ref_$n.err" || rc=$?
+    [ "$rc" -eq 0 ] || { cat "$TMP/ref_$n.err" >&2; die "IPOPT reference at N=$n M=$INTERVALS exited with $rc"; }
+    python3 - "$TMP/ref_$n.json" "$n" "$INTERVALS" <<'PY' || die "IPOPT reference at N=$n M=$INTERVALS: bad output"
 import json, sys
 d = json.load(open(sys.argv[1]))
 if d.get("success") is not True:
     sys.exit(f"IPOPT did not converge: {d.get('status')!r}")
 if d.get("problem") != "P2" or int(d.get("repeat", 0)) < 10:
     sys.exit(f"unexpected reference run: problem {d.get('problem')!r}, repeat {d.get('repeat')!r}")
+if d.get("nodes") != int(sys.argv[2]):
+    sys.exit(f"nodes {d.get('nodes')} != {sys.argv[2]}")
+if "intervals" in d and d["intervals"] != int(sys.argv[3]):
+    sys.exit(f"intervals {d['intervals']} != {sys.argv[3]}")
 print(f"{float(d['solve_time_ms']):.3f} {d['ipopt_iterations']} {float(d['final_mass_kg']):.3f}")
 PY
 }
 
-echo "bench/compare.sh  scenario=$SCENARIO  repeat=$REPEAT  $(date -u '+%Y-%m-%d %H:%M UTC')"
+# mesh N -> "global" for M = 1, else the per-interval point counts, e.g. "5+5+5+5"
+mesh() {
+    local n="$1" k pts=""
+    if [ "$INTERVALS" -eq 1 ]; then echo "global"; return; fi
+    for ((k = 0; k < INTERVALS; k++)); do
+        pts+="${pts:++}$((n / INTERVALS + (k < n % INTERVALS ? 1 : 0)))"
+    done
+    echo "$pts"
+}
+
+if [ "$INTERVALS" -eq 1 ]; then MESH_DESC="global LGR mesh (M=1)"; else MESH_DESC="hp mesh, M=$INTERVALS intervals"; fi
+echo "bench/compare.sh  scenario=$SCENARIO  repeat=$REPEAT  mesh: $MESH_DESC  $(date -u '+%Y-%m-%d %H:%M UTC')"
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
 echo
-printf '%4s | %14s %6s %12s | %14s %6s %12s | %13s\n' \
-    N "ours med [ms]" "iters" "m_f [kg]" "IPOPT med [ms]" "iters" "m_f [kg]" "ours/IPOPT"
-printf '%s\n' "-----+-------------------------------------+-------------------------------------+--------------"
+printf '%4s %3s %-16s | %14s %6s %12s | %14s %6s %12s | %13s\n' \
+    N M "mesh points" "ours med [ms]" "iters" "m_f [kg]" "IPOPT med [ms]" "iters" "m_f [kg]" "ours/IPOPT"
+printf '%s\n' "--------------------------+-------------------------------------+-------------------------------------+--------------"
 for n in "${NODES[@]}"; do
-    read -r o_ms o_it o_mf o_min o_max < <(ours "$n") || die "ours at N=$n failed"
-    read -r r_ms r_it r_mf < <(ipopt "$n") || die "IPOPT at N=$n failed"
-    [ -n "${o_ms:-}" ] && [ -n "${r_ms:-}" ] || die "missing timing at N=$n"
+    read -r o_ms o_it o_mf o_min o_max < <(ours "$n") || die "ours at N=$n M=$INTERVALS failed"
+    read -r r_ms r_it r_mf < <(ipopt "$n") || die "IPOPT at N=$n M=$INTERVALS failed"
+    [ -n "${o_ms:-}" ] && [ -n "${r_ms:-}" ] || die "missing timing at N=$n M=$INTERVALS"
     ratio=$(python3 -c "print(f'{$o_ms / $r_ms:.2f}')")
-    printf '%4s | %14s %6s %12s | %14s %6s %12s | %12sx\n' \
-        "$n" "$o_ms" "$o_it" "$o_mf" "$r_ms" "$r_it" "$r_mf" "$ratio"
+    printf '%4s %3s %-16s | %14s %6s %12s | %14s %6s %12s | %12sx\n' \
+        "$n" "$INTERVALS" "$(mesh "$n")" "$o_ms" "$o_it" "$o_mf" "$r_ms" "$r_it" "$r_mf" "$ratio"
     echo "       (ours: min $o_min ms, max $o_max ms over $REPEAT runs)" >&2
 done
 echo
 echo "ratio < 1: ours faster; > 1: ours slower. Both medians over $REPEAT solves."
+echo "Both sides solved on the same mesh: N points over M intervals (--intervals $INTERVALS)."

@@ -13,14 +13,16 @@ against an independent answer:
   controls are T and chi = d(delta)/dt.
 
 Both are transcribed with Legendre-Gauss-Radau (LGR) collocation, implemented
-here from scratch (Sec. 3.2, Eq. 24), and solved with CasADi + IPOPT.
+here from scratch (Sec. 3.2, Eq. 24), and solved with CasADi + IPOPT. The
+collocation mesh is either the paper's single global LGR interval (M = 1) or an
+hp mesh of M LGR intervals (see `LgrMesh`).
 
 Nothing from the rest of the repository is imported: the only inputs are the
 scenario TOML file and the command-line options.
 
 Usage:
     python nlp_reference.py --scenario ../../scenarios/paper.toml \
-        --nodes 20 --problem P2 [--repeat 5] [--json]
+        --nodes 20 --problem P2 [--intervals M] [--repeat 5] [--json]
 """
 
 from __future__ import annotations
@@ -65,6 +67,7 @@ class Scenario:
     nodes: int        # default N
     tf_guess: float   # [s]
     mf_guess: float   # [kg]
+    intervals: int = 1  # default number of LGR mesh intervals M
 
 
 def load_scenario(path: str) -> Scenario:
@@ -87,6 +90,7 @@ def load_scenario(path: str) -> Scenario:
                      rad(f["theta_deg"]), rad(f["pitch_rate_degps"])]),
         nodes=int(disc["nodes"]), tf_guess=disc["tf_guess_s"],
         mf_guess=disc["final_mass_guess_kg"],
+        intervals=int(disc.get("intervals", 1)),
     )
 
 
@@ -158,6 +162,63 @@ def lagrange_diff_matrix(tau_col: np.ndarray, tau_all: np.ndarray) -> np.ndarray
     return D
 
 
+class LgrMesh:
+    """N LGR collocation points split over M intervals (an hp mesh).
+
+    tau in [-1, 1] is cut at tau_k = -1 + 2k/M, k = 0..M. Interval k gets
+    n_k = N // M points, the first N % M intervals one more (n_k >= 2 is
+    required). Its points are the standard n_k-point LGR points mapped affinely
+    from [-1, 1] onto [tau_k, tau_{k+1}]; its non-collocated end point is the
+    next interval's first point (a shared state node), and tau = +1 is the last
+    state node. So `nodes` holds N + 1 strictly increasing values: each
+    interval's LGR points in turn, then +1. Collocation point i (global) of
+    interval k uses the row (2/h_k) D^(k)_i over the n_k + 1 state nodes
+    start_k .. start_k + n_k, where D^(k) is the n_k x (n_k + 1) LGR
+    differentiation matrix on [-1, 1] and h_k = tau_{k+1} - tau_k.
+
+    M = 1 is the paper's global mesh, value for value (2/h = 1, nodes unmapped).
+    """
+
+    def __init__(self, N: int, M: int):
+        if M < 1:
+            raise ValueError(f"intervals must be >= 1 (got {M})")
+        base, extra = divmod(N, M)
+        if base < 2:
+            raise ValueError(
+                f"N = {N} over M = {M} intervals leaves {base} point(s) in an interval; "
+                f"each interval needs at least 2, so M <= {N // 2}")
+        self.N, self.M = N, M
+        # Per interval: (start node, n_k, tau_lo, tau_hi, scaled local D).
+        self.intervals: list[tuple[int, int, float, float, np.ndarray]] = []
+        nodes = []
+        cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        start = 0
+        for k in range(M):
+            nk = base + (1 if k < extra else 0)
+            tau_lo = -1.0 + 2.0 * k / M
+            tau_hi = 1.0 if k + 1 == M else -1.0 + 2.0 * (k + 1) / M
+            half = 0.5 * (tau_hi - tau_lo)          # h_k / 2
+            if nk not in cache:
+                t = lgr_points(nk)
+                cache[nk] = (t, lagrange_diff_matrix(t, np.append(t, 1.0)))
+            t, D = cache[nk]
+            nodes.extend(t if M == 1 else tau_lo + half * (t + 1.0))
+            self.intervals.append((start, nk, tau_lo, tau_hi, D / half))
+            start += nk
+        assert start == N
+        nodes.append(1.0)
+        self.nodes = np.array(nodes)                 # N + 1 state nodes in tau
+        self.points = [iv[1] for iv in self.intervals]
+        assert np.all(np.diff(self.nodes) > 0)
+
+    def global_matrix(self) -> np.ndarray:
+        """The N x (N+1) block-row differentiation matrix (dense, for checks)."""
+        D = np.zeros((self.N, self.N + 1))
+        for start, nk, _, _, Dk in self.intervals:
+            D[start:start + nk, start:start + nk + 1] = Dk
+        return D
+
+
 # --------------------------------------------------------------------------
 # NLP construction
 # --------------------------------------------------------------------------
@@ -165,20 +226,22 @@ class LgrNlp:
     """Builds the LGR-collocated NLP for P1 or P2 once; can be solved repeatedly.
 
     Decision vector (all scaled to order one, physical = scale * scaled):
-        X  (N+1) x nx   states at tau_1..tau_N and tau_{N+1} = +1
+        X  (N+1) x nx   states at the N collocation points and at tau = +1
         U   N    x nu   controls at the N collocation points
         tf              final time
+    The mesh is `LgrMesh(N, intervals)`; intervals = 1 is the global mesh.
     """
 
     def __init__(self, sc: Scenario, N: int, problem: str,
                  tol: float = 1e-9, max_iter: int = 3000,
-                 tf_bounds: tuple[float, float] = (1.0, 100.0)):
+                 tf_bounds: tuple[float, float] = (1.0, 100.0),
+                 intervals: int = 1):
         if problem not in ("P1", "P2"):
             raise ValueError("problem must be P1 or P2")
         self.sc, self.N, self.problem = sc, N, problem
-        self.tau = lgr_points(N)
-        self.tau_all = np.append(self.tau, 1.0)
-        self.D = lagrange_diff_matrix(self.tau, self.tau_all)
+        self.mesh = LgrMesh(N, intervals)
+        self.tau_all = self.mesh.nodes               # N + 1 state nodes
+        self.tau = self.tau_all[:N]                  # N collocation points
 
         # State/control layout and scale factors (physical = scale * scaled).
         m0 = sc.x0[6]
@@ -234,7 +297,12 @@ class LgrNlp:
 
         # Defects, Eq. (24): sum_j D_ij X_j - (tf/2) f(X_i, U_i) = 0, i = 1..N,
         # expressed in scaled state units (each row divided by its state scale).
-        DX = ca.mtimes(ca.DM(self.D), X)          # N x nx, scaled
+        # D is block-row: interval k's rows (2/h_k) D^(k) touch only its own
+        # n_k + 1 nodes, so DX is built interval by interval from dense local
+        # products. The constraint Jacobian then has only those blocks as
+        # structural nonzeros (no zero-valued entries from a dense global D).
+        DX = ca.vertcat(*[ca.mtimes(ca.DM(Dk), X[start:start + nk + 1, :])
+                          for start, nk, _, _, Dk in self.mesh.intervals])  # N x nx
         g = []
         for i in range(N):
             f = self._rhs_sx(X[i, :], U[i, :])
@@ -391,6 +459,10 @@ def main(argv=None) -> int:
     ap.add_argument("--nodes", type=int, default=None,
                     help="number of LGR collocation points N (default: scenario)")
     ap.add_argument("--problem", choices=["P1", "P2"], default="P2")
+    ap.add_argument("--intervals", type=int, default=None,
+                    help="number of LGR mesh intervals M (hp mesh; N // M >= 2). "
+                         "Default: the scenario's discretization.intervals, else 1 "
+                         "(the paper's global mesh)")
     ap.add_argument("--repeat", type=int, default=1,
                     help="solve K times from the same guess; report median solve time")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
@@ -405,8 +477,15 @@ def main(argv=None) -> int:
     N = args.nodes or sc.nodes
     if N < 2:
         ap.error("--nodes must be >= 2")
+    M = args.intervals if args.intervals is not None else sc.intervals
+    if M < 1:
+        ap.error(f"--intervals must be >= 1 (got {M})")
+    if N // M < 2:
+        ap.error(f"N = {N} over M = {M} intervals: each interval needs at least "
+                 f"2 collocation points, so M <= {N // 2}")
 
-    nlp = LgrNlp(sc, N, args.problem, tol=args.tol, max_iter=args.max_iter)
+    nlp = LgrNlp(sc, N, args.problem, tol=args.tol, max_iter=args.max_iter,
+                 intervals=M)
     w0 = nlp.initial_guess()
 
     walls, sol, stats = [], None, None
@@ -426,6 +505,8 @@ def main(argv=None) -> int:
     out = {
         "problem": args.problem,
         "nodes": N,
+        "intervals": M,
+        "interval_points": nlp.mesh.points,
         "scenario": sc.name,
         "status": stats["return_status"],
         "success": bool(stats["success"]),
@@ -465,7 +546,9 @@ def main(argv=None) -> int:
         json.dump(out, sys.stdout)
         sys.stdout.write("\n")
     else:
-        print(f"{args.problem}  N={N}  scenario={sc.name}")
+        mesh = "global mesh" if M == 1 else \
+            f"{M} intervals ({'+'.join(str(p) for p in nlp.mesh.points)} points)"
+        print(f"{args.problem}  N={N}  {mesh}  scenario={sc.name}")
         print(f"  IPOPT: {out['status']} ({out['ipopt_iterations']} iterations), "
               f"max scaled defect {max_defect:.2e}")
         print(f"  t_f = {tf:.4f} s   m(t_f) = {out['final_mass_kg']:.1f} kg")
