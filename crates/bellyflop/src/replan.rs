@@ -15,6 +15,7 @@ use crate::conic::ConicSolver;
 use crate::dynamics::{self, ix, NU_MAX, NX};
 use crate::error::InputError;
 use crate::mesh::Mesh;
+use crate::propagate::{Interpolant, Interpolation};
 use crate::scenario::{Formulation, InitialState, Scenario};
 use crate::scvx::{self, Observer};
 use crate::solution::Solution;
@@ -31,15 +32,36 @@ pub struct Plan {
     pub trajectory: Trajectory,
     pub mesh: Mesh,
     pub form: Formulation,
+    /// PCHIP through the node values of σ = T/m and of δ, for flying the plan:
+    /// monotone, so they do not ring past the thrust bounds around the
+    /// bang-bang switch as the degree-(N − 1) control polynomial does (the
+    /// landing-precision measurements of `propagate`).
+    sigma_pchip: Interpolant,
+    delta_pchip: Interpolant,
 }
 
 impl Plan {
     pub fn from_solution(s: &Solution) -> Plan {
+        let sigma: Vec<f64> = s
+            .thrust_n
+            .iter()
+            .zip(&s.mass_kg)
+            .map(|(t, m)| t / m)
+            .collect();
         Plan {
             trajectory: s.trajectory.clone(),
             mesh: Mesh::uniform(s.nodes, s.intervals),
             form: s.formulation,
+            sigma_pchip: Interpolant::new(Interpolation::Pchip, &s.t_s, &sigma),
+            delta_pchip: Interpolant::new(Interpolation::Pchip, &s.t_s, &s.delta_rad),
         }
+    }
+
+    /// Thrust-per-mass σ [N/kg] and nozzle angle δ [rad] to fly at `t_s`
+    /// (PCHIP through the node values, held beyond the ends).
+    pub fn flight_controls_at(&self, t_s: f64) -> (f64, f64) {
+        let t = t_s.clamp(0.0, self.tf_s());
+        (self.sigma_pchip.eval(t), self.delta_pchip.eval(t))
     }
 
     /// Duration t_f [s].

@@ -1,0 +1,597 @@
+//! Closed-loop online guidance: the paper's hardware-in-the-loop experiment
+//! (Section 4.2) as software in the loop.
+//!
+//! Navigation measures the true state of the [`Plant`] with noise; guidance
+//! re-plans at [`GuidanceConfig::replan_rate_hz`] from the measured state with
+//! the remaining time free, warm-started from the previous plan
+//! ([`Planner::replan`]); control applies the current plan between re-plans:
+//!
+//! - thrust T = σ(t)·m̂, the plan's thrust-per-mass times the measured mass;
+//! - gimbal rate χ = (δ(t + Δt) − δ̂)/Δt within ±χ_max: the nozzle follows the
+//!   plan's angle (δ̂ is the actuator's own position);
+//!
+//! with σ and δ PCHIP-interpolated between the plan's nodes, as in the
+//! landing-precision re-integration of `propagate`. With
+//! [`GuidanceConfig::feedback`] (the default) the plan is tracked:
+//!
+//! - vertical: σ += a_z / cos φ, a_z = ω²(z_ref − ẑ) + 2ζω(Vz_ref − V̂z),
+//!   since V̇z = σ cos φ − g (φ = θ + δ);
+//! - horizontal: the pitch reference is offset by Δθ = −a_x/(σ cos φ)
+//!   (within ±[`MAX_PITCH_OFFSET_DEG`]), a_x likewise from x and Vx, since
+//!   V̇x = −σ sin φ; both translational loops are off while the thrust is far
+//!   from vertical (the belly-flop), where they have no authority;
+//! - pitch: δ += (ω_p² e + 2ζ_p ω_p ė)/b with e = θ̂ − θ_ref − Δθ: a nozzle
+//!   deflection Δδ changes ẇ by −b·Δδ, b = −L_T σ cos δ (Eq. 22, L_T < 0), so
+//!   the loop keeps its bandwidth whatever the thrust.
+//!
+//! [`GAINS`] sets the bandwidths: pitch 1.5 rad/s, translation 0.5 rad/s.
+//! Plans keep actuator margins for this feedback
+//! ([`GuidanceConfig::thrust_margin_frac`], [`GuidanceConfig::gimbal_margin_frac`]).
+//!
+//! Each re-plan has a deadline, by default the re-plan period. A solve that
+//! misses it, fails or is not `solved` is logged and the previous plan carries
+//! on. Re-planning stops near touchdown (time-to-go or altitude), and the last
+//! plan is flown to the ground.
+//!
+//! The first plan is a cold solve from the measured initial state, computed
+//! before the run starts (as the paper's first plan is); if it fails, the
+//! nominal scenario's plan is flown instead. New plans take effect at the
+//! measurement time that produced them (no computational delay is modelled).
+//!
+//! Determinism: a run depends only on the scenario, the configurations and
+//! (seed, run index) — except that a deadline miss depends on the wall-clock
+//! solve time. Misses are counted in every result; with the default 500 ms
+//! deadline and re-plans of tens of milliseconds none occur in practice.
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::dynamics::ix;
+use crate::error::InputError;
+use crate::replan::{initial_state, Plan, Planner};
+use crate::scenario::Scenario;
+use crate::scvx::Silent;
+use crate::sim::{
+    Command, Dispersions, Outcome, Plant, PlantConfig, PlantState, SaturationCounts, StepResult,
+};
+use crate::solution::{Solution, Status};
+
+/// Guidance-loop settings. Missing fields take the defaults.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GuidanceConfig {
+    /// Re-plan from the measured state at all; false flies the first plan
+    /// open loop. Default true.
+    pub replan: bool,
+    /// Re-plan rate [Hz]. Default 2. Range (0, 100].
+    pub replan_rate_hz: f64,
+    /// Deadline of one re-plan [s]; 0 means the re-plan period. Default 0.
+    pub deadline_s: f64,
+    /// No re-plan once the plan's time-to-go is below this [s]; the terminal
+    /// descent flies the rest. Default 3.
+    pub stop_time_to_go_s: f64,
+    /// No re-plan below this measured altitude above the pad [m]. Default 5.
+    pub stop_altitude_m: f64,
+    /// Track the plan's states between re-plans, and fly the terminal
+    /// descent (module docs). Default true.
+    pub feedback: bool,
+    /// Thrust margin kept for feedback: plans use [T_min·(1 + μ),
+    /// T_max·(1 − μ)] while the engine can do [T_min, T_max]. A fuel-optimal
+    /// plan ends at full thrust, so without a margin nothing is left to
+    /// correct a 3 % thrust error. Default 0.05. Range [0, 0.3].
+    pub thrust_margin_frac: f64,
+    /// Nozzle margin kept for the pitch loop: plans use δ_max·(1 − μ_δ) and
+    /// χ_max·(1 − μ_δ). Default 0.2. Range [0, 0.5].
+    pub gimbal_margin_frac: f64,
+}
+
+impl Default for GuidanceConfig {
+    fn default() -> Self {
+        GuidanceConfig {
+            replan: true,
+            replan_rate_hz: 2.0,
+            deadline_s: 0.0,
+            stop_time_to_go_s: 3.0,
+            stop_altitude_m: 5.0,
+            feedback: true,
+            thrust_margin_frac: 0.05,
+            gimbal_margin_frac: 0.2,
+        }
+    }
+}
+
+impl GuidanceConfig {
+    /// Ranges of every field; the error names the field, value and range.
+    pub fn validate(&self) -> Result<(), InputError> {
+        let check = |field: &str, v: f64, lo: f64, hi: f64, open_lo: bool| {
+            let ok = v.is_finite() && (if open_lo { v > lo } else { v >= lo }) && v <= hi;
+            if ok {
+                Ok(())
+            } else {
+                Err(InputError::OutOfRange {
+                    field: format!("guidance.{field}"),
+                    value: v,
+                    allowed: format!("{}{lo}, {hi}]", if open_lo { '(' } else { '[' }),
+                })
+            }
+        };
+        check("replan_rate_hz", self.replan_rate_hz, 0.0, 100.0, true)?;
+        check("deadline_s", self.deadline_s, 0.0, 60.0, false)?;
+        check(
+            "stop_time_to_go_s",
+            self.stop_time_to_go_s,
+            0.0,
+            1000.0,
+            false,
+        )?;
+        check("stop_altitude_m", self.stop_altitude_m, 0.0, 1e4, false)?;
+        check(
+            "thrust_margin_frac",
+            self.thrust_margin_frac,
+            0.0,
+            0.3,
+            false,
+        )?;
+        check(
+            "gimbal_margin_frac",
+            self.gimbal_margin_frac,
+            0.0,
+            0.5,
+            false,
+        )
+    }
+
+    /// The deadline actually applied [s].
+    pub fn deadline(&self) -> f64 {
+        if self.deadline_s > 0.0 {
+            self.deadline_s
+        } else {
+            1.0 / self.replan_rate_hz
+        }
+    }
+}
+
+/// What became of one re-plan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReplanOutcome {
+    /// Solved within the deadline; the new plan is flown.
+    Accepted,
+    /// Not `solved` (or the measured state was out of range); old plan kept.
+    Failed,
+    /// Solved, but after the deadline; old plan kept.
+    Missed,
+}
+
+/// One re-plan of a run.
+#[derive(Debug, Clone, Serialize)]
+pub struct ReplanEvent {
+    /// Time of the measurement it started from [s].
+    pub time_s: f64,
+    /// Wall-clock solve time [ms].
+    pub solve_ms: f64,
+    /// SCvx iterations.
+    pub iterations: usize,
+    /// The solver's status (`solved`, `infeasible`, …, or `bad_state`).
+    pub status: String,
+    /// Why it was not `solved`, or empty.
+    pub reason: String,
+    pub outcome: ReplanOutcome,
+}
+
+/// One sample of the flown trajectory (at the plant rate).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct TraceSample {
+    pub t_s: f64,
+    pub state: PlantState,
+    pub thrust_cmd_n: f64,
+    pub gimbal_rate_cmd_radps: f64,
+    pub wind_mps: f64,
+}
+
+/// The result of one closed-loop landing.
+#[derive(Debug, Clone)]
+pub struct Flight {
+    pub outcome: Outcome,
+    /// The first plan (cold solve) that the run started with.
+    pub first_plan: Solution,
+    /// True if the first plan is the nominal scenario's (the cold solve
+    /// from the measured initial state did not solve).
+    pub first_plan_nominal: bool,
+    pub replans: Vec<ReplanEvent>,
+    pub saturation: SaturationCounts,
+    /// Initial mass of the true vehicle [kg].
+    pub initial_mass_kg: f64,
+    /// The flown trajectory; empty unless asked for.
+    pub trace: Vec<TraceSample>,
+}
+
+impl Flight {
+    /// Propellant burnt [kg] (initial mass minus mass at the end).
+    pub fn fuel_kg(&self) -> f64 {
+        self.initial_mass_kg - end_state(&self.outcome).mass_kg
+    }
+
+    /// Re-plans that failed or missed their deadline.
+    pub fn count(&self, outcome: ReplanOutcome) -> usize {
+        self.replans.iter().filter(|r| r.outcome == outcome).count()
+    }
+}
+
+/// The plant state at which a run ended.
+pub fn end_state(o: &Outcome) -> PlantState {
+    match o {
+        Outcome::Touchdown(t) => t.state,
+        Outcome::PropellantExhausted { state, .. }
+        | Outcome::TimeLimit { state, .. }
+        | Outcome::NonFinite { state, .. } => *state,
+    }
+}
+
+/// The LCvx state (x, z, Vx, Vz, θ, w, ln m, δ) of a plant state.
+fn lcvx(s: &PlantState) -> [f64; 8] {
+    [
+        s.x_m,
+        s.z_m,
+        s.vx_mps,
+        s.vz_mps,
+        s.theta_rad,
+        s.pitch_rate_radps,
+        s.mass_kg.max(1.0).ln(),
+        s.gimbal_rad,
+    ]
+}
+
+/// Fly run `run_index` of campaign `seed`: draw the dispersions, plan, and
+/// land in closed loop (or open loop with `guidance.replan = false`).
+///
+/// Errors only for invalid configurations; every valid input gives a
+/// [`Flight`], whatever happens in it.
+pub fn fly(
+    scenario: &Scenario,
+    dispersions: &Dispersions,
+    plant_config: &PlantConfig,
+    guidance: &GuidanceConfig,
+    seed: u64,
+    run_index: u64,
+    keep_trace: bool,
+) -> Result<Flight, InputError> {
+    scenario.validate()?;
+    dispersions.validate()?;
+    guidance.validate()?;
+    let mut realization = dispersions.sample(seed, run_index);
+    let mut plant = Plant::from_realization(scenario, plant_config, &realization)?;
+    let initial_mass_kg = plant.state().mass_kg;
+    let model = plant.model().clone();
+    // The planner's engine: the true one less the feedback margin.
+    let mut planning = scenario.clone();
+    let mu = guidance.thrust_margin_frac;
+    planning.vehicle.min_thrust_n *= 1.0 + mu;
+    planning.vehicle.max_thrust_n *= 1.0 - mu;
+    planning.vehicle.max_gimbal_deg *= 1.0 - guidance.gimbal_margin_frac;
+    planning.vehicle.max_gimbal_rate_degps *= 1.0 - guidance.gimbal_margin_frac;
+    planning.validate()?;
+    let scenario = &planning;
+
+    // First plan: a cold solve from the measured initial state.
+    let measured0 = realization.measure(plant.state());
+    let gimbal_max_rad = scenario.vehicle.max_gimbal_deg.to_radians();
+    let mut s0 = scenario.clone();
+    let mut x0 = lcvx(&measured0);
+    x0[ix::DELTA] = x0[ix::DELTA].clamp(-gimbal_max_rad, gimbal_max_rad);
+    s0.initial = initial_state(&x0);
+    let mut planner = Planner::new(scenario.clone());
+    let (mut first_plan, mut nominal) = (None, false);
+    if s0.validate().is_ok() {
+        let mut p = Planner::new(s0);
+        let sol = p.cold(&mut Silent);
+        if sol.status == Status::Solved {
+            planner.plan = p.plan;
+            first_plan = Some(sol);
+        }
+    }
+    let first_plan = match first_plan {
+        Some(sol) => sol,
+        None => {
+            nominal = true;
+            planner.cold(&mut Silent)
+        }
+    };
+    let Some(mut plan) = planner.plan.clone() else {
+        // Not even the nominal scenario solves: nothing to fly. The plant
+        // falls with the engine at minimum thrust until it ends.
+        return Ok(fall_without_plan(
+            plant,
+            realization,
+            first_plan,
+            initial_mass_kg,
+            keep_trace,
+            &model,
+        ));
+    };
+
+    let period_s = 1.0 / guidance.replan_rate_hz;
+    let deadline_s = guidance.deadline();
+    let mut plan_start_s = 0.0;
+    let mut next_replan_s = period_s;
+    let mut replans = Vec::new();
+    let mut trace = Vec::new();
+    let mut terminal = false;
+    loop {
+        let t = plant.time_s();
+        let measured = realization.measure(plant.state());
+        let time_to_go = plan.tf_s() - (t - plan_start_s);
+        let high_enough = measured.z_m - scenario.terminal.z_m > guidance.stop_altitude_m;
+        if guidance.replan
+            && t + 1e-9 >= next_replan_s
+            && time_to_go > guidance.stop_time_to_go_s
+            && high_enough
+            && !terminal
+        {
+            next_replan_s += period_s;
+            let previous = planner.plan.clone();
+            let mut x = lcvx(&measured);
+            x[ix::DELTA] = x[ix::DELTA].clamp(-gimbal_max_rad, gimbal_max_rad);
+            let state = initial_state(&x);
+            let start = Instant::now();
+            let result = planner.replan(&state, t - plan_start_s, &mut Silent);
+            let solve_ms = start.elapsed().as_secs_f64() * 1e3;
+            let (iterations, status, reason) = match &result {
+                Ok(sol) => (sol.iterations, sol.status, sol.message.clone()),
+                Err(e) => (0, Status::Infeasible, e.to_string()),
+            };
+            let outcome = if result.is_err() || status != Status::Solved {
+                ReplanOutcome::Failed
+            } else if solve_ms > deadline_s * 1e3 {
+                ReplanOutcome::Missed
+            } else {
+                ReplanOutcome::Accepted
+            };
+            if outcome == ReplanOutcome::Accepted {
+                plan = planner
+                    .plan
+                    .clone()
+                    .expect("a solved re-plan sets the plan");
+                plan_start_s = t;
+            } else {
+                planner.plan = previous;
+            }
+            replans.push(ReplanEvent {
+                time_s: t,
+                solve_ms,
+                iterations,
+                status: match result {
+                    Ok(_) => status.as_str().to_string(),
+                    Err(_) => "bad_state".to_string(),
+                },
+                reason,
+                outcome,
+            });
+        }
+
+        // The terminal descent takes over where re-planning stops.
+        terminal |= guidance.feedback && (time_to_go <= guidance.stop_time_to_go_s || !high_enough);
+        let cmd = if terminal {
+            terminal_command(&measured, &scenario.terminal, plant.dt_s(), &model)
+        } else {
+            command(
+                &plan,
+                t - plan_start_s,
+                &measured,
+                plant.dt_s(),
+                guidance.feedback,
+                &model,
+            )
+        };
+        let wind = realization.wind_at_step(plant.dt_s());
+        if keep_trace {
+            trace.push(TraceSample {
+                t_s: t,
+                state: *plant.state(),
+                thrust_cmd_n: cmd.thrust_n,
+                gimbal_rate_cmd_radps: cmd.gimbal_rate_radps,
+                wind_mps: wind,
+            });
+        }
+        if let StepResult::Ended(outcome) = plant.step(cmd, wind) {
+            if keep_trace {
+                trace.push(TraceSample {
+                    t_s: plant.time_s(),
+                    state: *plant.state(),
+                    thrust_cmd_n: cmd.thrust_n,
+                    gimbal_rate_cmd_radps: cmd.gimbal_rate_radps,
+                    wind_mps: wind,
+                });
+            }
+            return Ok(Flight {
+                outcome,
+                first_plan,
+                first_plan_nominal: nominal,
+                replans,
+                saturation: *plant.saturation(),
+                initial_mass_kg,
+                trace,
+            });
+        }
+    }
+}
+
+/// Bandwidths of the tracking loops (module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gains {
+    /// Pitch loop natural frequency [rad/s] and damping ratio.
+    pub pitch_wn_radps: f64,
+    pub pitch_zeta: f64,
+    /// Translational loops (x and z) natural frequency [rad/s] and damping.
+    pub trans_wn_radps: f64,
+    pub trans_zeta: f64,
+}
+
+/// The default loop shapes: the pitch loop well above the translational ones.
+pub const GAINS: Gains = Gains {
+    pitch_wn_radps: 1.5,
+    pitch_zeta: 0.8,
+    trans_wn_radps: 0.5,
+    trans_zeta: 1.0,
+};
+
+/// Largest pitch offset the horizontal loop may ask for [deg].
+pub const MAX_PITCH_OFFSET_DEG: f64 = 5.0;
+
+/// Below this cos(θ + δ) the thrust is too far from vertical for the
+/// translational loops (during the belly-flop); they are off there.
+const MIN_COS_PHI: f64 = 0.5;
+
+/// The control law between re-plans (module docs): plan time `t_plan_s`.
+///
+/// Beyond the plan's end the reference is the plan's final state with the
+/// feed-forward σ = g0 / cos(θ + δ) (hover), so the feedback settles the
+/// vehicle onto the pad instead of holding the final burn's thrust.
+fn command(
+    plan: &Plan,
+    t_plan_s: f64,
+    measured: &PlantState,
+    dt_s: f64,
+    feedback: bool,
+    model: &crate::dynamics::Model,
+) -> Command {
+    let (mut sigma, _) = plan.flight_controls_at(t_plan_s);
+    let (_, mut delta_next) = plan.flight_controls_at(t_plan_s + dt_s);
+    let r = plan.state_at(t_plan_s);
+    let phi_ref = r[ix::THETA] + r[ix::DELTA];
+    if t_plan_s > plan.tf_s() {
+        sigma = model.g0_mps2 / phi_ref.cos().max(MIN_COS_PHI);
+    }
+    if feedback {
+        let m = measured;
+        let g = GAINS;
+        let (wt, zt) = (g.trans_wn_radps, g.trans_zeta);
+        let cos_phi = phi_ref.cos();
+        let mut dtheta = 0.0;
+        if cos_phi > MIN_COS_PHI {
+            // V̇z = σ cos φ − g: Δσ = a_z / cos φ.
+            let az = wt * wt * (r[ix::Z] - m.z_m) + 2.0 * zt * wt * (r[ix::VZ] - m.vz_mps);
+            sigma += az / cos_phi;
+            // V̇x = −σ sin φ: Δφ = −a_x / (σ cos φ), taken by the pitch.
+            let ax = wt * wt * (r[ix::X] - m.x_m) + 2.0 * zt * wt * (r[ix::VX] - m.vx_mps);
+            let lim = MAX_PITCH_OFFSET_DEG.to_radians();
+            dtheta = (-ax / (sigma.max(1.0) * cos_phi)).clamp(-lim, lim);
+        }
+        // ẇ ≈ L_T σ sin δ + … with L_T < 0: a nozzle step Δδ gives
+        // Δẇ ≈ −b Δδ, b = −L_T σ cos δ > 0. Place the pitch loop's poles.
+        let b = (-model.l_t_pm * sigma.max(0.0) * r[ix::DELTA].cos()).max(1e-3);
+        let (wp, zp) = (g.pitch_wn_radps, g.pitch_zeta);
+        let e = m.theta_rad - r[ix::THETA] - dtheta;
+        let edot = m.pitch_rate_radps - r[ix::W];
+        delta_next += (wp * wp * e + 2.0 * zp * wp * edot) / b;
+        let dmax = model.max_gimbal_rad;
+        delta_next = delta_next.clamp(-dmax, dmax);
+    }
+    let chi_max = model.max_gimbal_rate_radps;
+    let chi = (delta_next - measured.gimbal_rad) / dt_s;
+    Command {
+        thrust_n: sigma * measured.mass_kg,
+        gimbal_rate_radps: chi.clamp(-chi_max, chi_max),
+    }
+}
+
+/// Touchdown speed the terminal descent aims at [m/s] (a target of 0
+/// would only be reached asymptotically, hovering just above the pad).
+pub const TERMINAL_TOUCHDOWN_SPEED_MPS: f64 = 0.5;
+
+/// Largest tilt the terminal descent commands [deg].
+pub const TERMINAL_MAX_TILT_DEG: f64 = 5.0;
+
+/// Bandwidth of the terminal descent's horizontal loop [rad/s] (critically
+/// damped), well below the pitch loop's that executes it.
+pub const TERMINAL_HORIZONTAL_WN_RADPS: f64 = 0.4;
+
+/// With less time-to-go than this the terminal descent stops steering
+/// horizontally and holds the vehicle upright, leaving the pitch loop time to
+/// settle [s].
+const TERMINAL_UPRIGHT_TGO_S: f64 = 2.0;
+
+/// The terminal descent, a feedback law on the measured state alone (no
+/// plan), from where re-planning stops to touchdown:
+///
+/// - vertical: the constant deceleration that brings V̂z to
+///   −[`TERMINAL_TOUCHDOWN_SPEED_MPS`] at the pad,
+///   a_z = (V̂z² − v_td²)/(2h) + g0, σ = a_z / cos φ;
+/// - horizontal: a_x = −ω_h²(x̂ − x_f) − 2ω_h(V̂x − Vx_f)
+///   ([`TERMINAL_HORIZONTAL_WN_RADPS`]; a zero-effort-miss law with
+///   t_go = 2h/|V̂z| over-steered as t_go shrank, measured), taken by tilting, θ_cmd = −a_x/σ within ±[`TERMINAL_MAX_TILT_DEG`], and
+///   upright for the last [`TERMINAL_UPRIGHT_TGO_S`];
+/// - pitch: the same pole placement as between re-plans ([`GAINS`]).
+fn terminal_command(
+    m: &PlantState,
+    target: &crate::scenario::TerminalState,
+    dt_s: f64,
+    model: &crate::dynamics::Model,
+) -> Command {
+    let h = (m.z_m - target.z_m).max(0.05);
+    let g0 = model.g0_mps2;
+    let v_td = TERMINAL_TOUCHDOWN_SPEED_MPS;
+    let descent = (-m.vz_mps).max(v_td);
+    let az = ((m.vz_mps * m.vz_mps - v_td * v_td) / (2.0 * h)).max(0.0) + g0;
+    let phi = m.theta_rad + m.gimbal_rad;
+    let sigma = az / phi.cos().max(MIN_COS_PHI);
+    let mut theta_cmd = target.theta_deg.to_radians();
+    let tgo = 2.0 * h / descent;
+    if tgo > TERMINAL_UPRIGHT_TGO_S {
+        let wh = TERMINAL_HORIZONTAL_WN_RADPS;
+        let ax = -wh * wh * (m.x_m - target.x_m) - 2.0 * wh * (m.vx_mps - target.vx_mps);
+        let lim = TERMINAL_MAX_TILT_DEG.to_radians();
+        theta_cmd += (-ax / sigma).clamp(-lim, lim);
+    }
+    let b = (-model.l_t_pm * sigma * m.gimbal_rad.cos()).max(1e-3);
+    let (wp, zp) = (GAINS.pitch_wn_radps, GAINS.pitch_zeta);
+    let e = m.theta_rad - theta_cmd;
+    let edot = m.pitch_rate_radps - target.pitch_rate_degps.to_radians();
+    let dmax = model.max_gimbal_rad;
+    let delta = ((wp * wp * e + 2.0 * zp * wp * edot) / b).clamp(-dmax, dmax);
+    let chi_max = model.max_gimbal_rate_radps;
+    Command {
+        thrust_n: sigma * m.mass_kg,
+        gimbal_rate_radps: ((delta - m.gimbal_rad) / dt_s).clamp(-chi_max, chi_max),
+    }
+}
+
+/// A run with no plan at all: minimum thrust, nozzle centred, to the end.
+fn fall_without_plan(
+    mut plant: Plant,
+    mut realization: crate::sim::Realization,
+    first_plan: Solution,
+    initial_mass_kg: f64,
+    keep_trace: bool,
+    model: &crate::dynamics::Model,
+) -> Flight {
+    let mut trace = Vec::new();
+    loop {
+        let cmd = Command {
+            thrust_n: model.min_thrust_n,
+            gimbal_rate_radps: 0.0,
+        };
+        let wind = realization.wind_at_step(plant.dt_s());
+        if keep_trace {
+            trace.push(TraceSample {
+                t_s: plant.time_s(),
+                state: *plant.state(),
+                thrust_cmd_n: cmd.thrust_n,
+                gimbal_rate_cmd_radps: 0.0,
+                wind_mps: wind,
+            });
+        }
+        if let StepResult::Ended(outcome) = plant.step(cmd, wind) {
+            return Flight {
+                outcome,
+                first_plan,
+                first_plan_nominal: true,
+                replans: Vec::new(),
+                saturation: *plant.saturation(),
+                initial_mass_kg,
+                trace,
+            };
+        }
+    }
+}
