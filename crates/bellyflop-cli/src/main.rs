@@ -7,11 +7,14 @@ use bellyflop::solution::IterationRecord;
 use bellyflop::{Formulation, Scenario, Solution};
 use clap::{Parser, Subcommand, ValueEnum};
 
+mod campaign_plot;
 mod init;
 mod landing;
+mod montecarlo;
 mod output;
 mod plot;
 mod sample;
+mod sim;
 mod sweep;
 
 #[derive(Parser)]
@@ -35,6 +38,12 @@ enum Command {
     /// Solve at several N and tabulate t_f, final mass, landing precision,
     /// iterations and solve time (the paper's Tables 3-5).
     Sweep(sweep::SweepArgs),
+    /// Fly one closed-loop landing with dispersions: navigation noise,
+    /// re-planning at 2 Hz, tracking and terminal descent, to touchdown.
+    Sim(sim::SimArgs),
+    /// Fly many dispersed closed-loop landings in parallel and summarize
+    /// the touchdown errors, fuel and re-plan times.
+    Montecarlo(montecarlo::MonteCarloArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -74,7 +83,7 @@ struct SolveArgs {
 }
 
 /// Exit code for bad input (before any solve).
-const EXIT_BAD_INPUT: u8 = 2;
+pub(crate) const EXIT_BAD_INPUT: u8 = 2;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -82,6 +91,8 @@ fn main() -> ExitCode {
         Command::Solve(args) => solve(args),
         Command::Init(args) => init::run(&args),
         Command::Sweep(args) => sweep::run(&args),
+        Command::Sim(args) => sim::run(&args),
+        Command::Montecarlo(args) => montecarlo::run(&args),
     }
 }
 

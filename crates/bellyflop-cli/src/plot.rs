@@ -27,7 +27,7 @@ use crate::output::OutputError;
 use crate::sample::Dense;
 
 /// Font family name the plots ask for (registered in [`fonts`]).
-const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 
 /// Every plot: file stem and size in pixels.
 pub const PLOTS: [(&str, (u32, u32)); 3] = [
@@ -106,7 +106,7 @@ impl<'a> PlotData<'a> {
 }
 
 /// Register the embedded font once.
-fn fonts() {
+pub(crate) fn fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         let faces = [
@@ -124,9 +124,9 @@ fn fonts() {
     });
 }
 
-type Res<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+pub(crate) type Res<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
-fn plot_error(path: &Path, e: impl std::fmt::Display) -> OutputError {
+pub(crate) fn plot_error(path: &Path, e: impl std::fmt::Display) -> OutputError {
     OutputError::Plot {
         path: path.display().to_string(),
         message: e.to_string(),

@@ -1,0 +1,286 @@
+//! `bellyflop sim`: one closed-loop landing with dispersions.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use bellyflop::guidance::{end_state, Flight, ReplanOutcome, SimConfig};
+use bellyflop::sim::{Dispersions, Outcome};
+use bellyflop::Scenario;
+use serde_json::{json, Value};
+
+use crate::output::{self, OutputError};
+use crate::sample::Dense;
+use crate::{campaign_plot, EXIT_BAD_INPUT};
+
+/// Exit code of a run that did not end in a touchdown.
+pub const EXIT_NO_TOUCHDOWN: u8 = 7;
+
+#[derive(clap::Args, Default)]
+pub struct SimArgs {
+    /// Scenario TOML file; the paper's case when omitted.
+    #[arg(long)]
+    scenario: Option<PathBuf>,
+    /// Closed-loop configuration TOML ([dispersions], [guidance], [plant]);
+    /// every field defaults (see `bellyflop::guidance::SimConfig`).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Campaign seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Run index within the campaign (the same draw as that run of
+    /// `montecarlo` with the same seed).
+    #[arg(long, default_value_t = 0)]
+    run: u64,
+    /// Fly the first plan without re-planning.
+    #[arg(long)]
+    open_loop: bool,
+    /// Switch every dispersion off (nominal vehicle, no wind, exact navigation).
+    #[arg(long)]
+    no_dispersions: bool,
+    /// Print one JSON object on stdout instead of a summary.
+    #[arg(long)]
+    json: bool,
+    /// Write the plan's files and plots (as `solve --out`) with the flown
+    /// trajectory overlaid, plus flight.csv, replans.csv, flight.json and the
+    /// re-plan timeline plot, into DIR.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+/// Scenario and configuration from the common arguments.
+pub fn load(
+    scenario: &Option<PathBuf>,
+    config: &Option<PathBuf>,
+    open_loop: bool,
+    no_dispersions: bool,
+) -> Result<(Scenario, SimConfig), bellyflop::InputError> {
+    let s = match scenario {
+        Some(p) => Scenario::from_file(p)?,
+        None => Scenario::paper(),
+    };
+    let mut c = match config {
+        Some(p) => SimConfig::from_file(p)?,
+        None => SimConfig::default(),
+    };
+    if open_loop {
+        c.guidance.replan = false;
+    }
+    if no_dispersions {
+        c.dispersions = Dispersions::none();
+    }
+    c.validate()?;
+    Ok((s, c))
+}
+
+pub fn run(args: &SimArgs) -> ExitCode {
+    let (scenario, config) =
+        match load(&args.scenario, &args.config, args.open_loop, args.no_dispersions) {
+            Ok(v) => v,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_BAD_INPUT);
+            }
+        };
+    if let Some(dir) = &args.out {
+        if let Err(e) = output::prepare(dir) {
+            eprintln!("error: --out {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    }
+    let flight = match config.fly(&scenario, args.seed, args.run, args.out.is_some()) {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let v = flight_json(&flight, args.seed, args.run, &config);
+    if args.json {
+        println!("{v}");
+    } else {
+        print_summary(&flight, args.seed, args.run);
+    }
+    if let Some(dir) = &args.out {
+        match write(dir, &scenario, &flight, &v) {
+            Ok(files) => {
+                if !args.json {
+                    let names: Vec<String> = files
+                        .iter()
+                        .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+                        .collect();
+                    eprintln!("wrote {}: {}", dir.display(), names.join(", "));
+                }
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(output::EXIT_OUTPUT);
+            }
+        }
+    }
+    match flight.outcome {
+        Outcome::Touchdown(_) => ExitCode::SUCCESS,
+        _ => ExitCode::from(EXIT_NO_TOUCHDOWN),
+    }
+}
+
+/// The name of an outcome.
+pub fn outcome_name(o: &Outcome) -> &'static str {
+    match o {
+        Outcome::Touchdown(_) => "touchdown",
+        Outcome::PropellantExhausted { .. } => "propellant_exhausted",
+        Outcome::TimeLimit { .. } => "time_limit",
+        Outcome::NonFinite { .. } => "non_finite",
+    }
+}
+
+fn print_summary(f: &Flight, seed: u64, run: u64) {
+    println!("run           seed {seed}, run {run}");
+    println!(
+        "first plan    {}{}, t_f {:.3} s, {} iterations",
+        f.first_plan.status.as_str(),
+        if f.first_plan_nominal {
+            " (nominal scenario's: the dispersed one did not solve)"
+        } else {
+            ""
+        },
+        f.first_plan.tf_s,
+        f.first_plan.iterations
+    );
+    println!("outcome       {}", outcome_name(&f.outcome));
+    if let Outcome::Touchdown(td) = &f.outcome {
+        println!("touchdown     t = {:.3} s", td.time_s);
+        println!("  position    {:+.3} m", td.x_error_m);
+        println!(
+            "  velocity    vertical {:+.3} m/s, horizontal {:+.3} m/s (speed {:.3} m/s)",
+            td.vertical_velocity_mps, td.horizontal_velocity_mps, td.speed_mps
+        );
+        println!(
+            "  attitude    pitch {:+.3} deg, pitch rate {:+.3} deg/s",
+            td.pitch_error_deg, td.pitch_rate_degps
+        );
+        println!("  propellant  {:.1} kg left", td.propellant_left_kg);
+    } else {
+        let s = end_state(&f.outcome);
+        println!("  ended at    x {:.2} m, z {:.2} m", s.x_m, s.z_m);
+    }
+    println!("fuel          {:.1} kg", f.fuel_kg());
+    let times: Vec<f64> = f.replans.iter().map(|r| r.solve_ms).collect();
+    let max = times.iter().copied().fold(0.0, f64::max);
+    println!(
+        "re-plans      {} ({} accepted, {} failed, {} missed the deadline), slowest {:.1} ms",
+        f.replans.len(),
+        f.count(ReplanOutcome::Accepted),
+        f.count(ReplanOutcome::Failed),
+        f.count(ReplanOutcome::Missed),
+        max
+    );
+    for r in &f.replans {
+        if r.outcome != ReplanOutcome::Accepted {
+            println!(
+                "  t = {:6.2} s  {:?}: {} after {} iterations, {:.1} ms. {}",
+                r.time_s, r.outcome, r.status, r.iterations, r.solve_ms, r.reason
+            );
+        }
+    }
+}
+
+/// The flight as one JSON object.
+pub fn flight_json(f: &Flight, seed: u64, run: u64, config: &SimConfig) -> Value {
+    json!({
+        "seed": seed,
+        "run": run,
+        "outcome": f.outcome,
+        "outcome_name": outcome_name(&f.outcome),
+        "fuel_kg": f.fuel_kg(),
+        "first_plan": {
+            "status": f.first_plan.status.as_str(),
+            "nominal": f.first_plan_nominal,
+            "tf_s": f.first_plan.tf_s,
+            "final_mass_kg": f.first_plan.final_mass_kg,
+            "iterations": f.first_plan.iterations,
+        },
+        "replans": f.replans,
+        "saturation": f.saturation,
+        "config": config,
+    })
+}
+
+/// The flown trajectory in the columns of `trajectory.csv`.
+fn flown(f: &Flight) -> Dense {
+    let col = |g: &dyn Fn(&bellyflop::guidance::TraceSample) -> f64| {
+        f.trace.iter().map(g).collect::<Vec<f64>>()
+    };
+    Dense::from_columns([
+        col(&|s| s.t_s),
+        col(&|s| s.state.x_m),
+        col(&|s| s.state.z_m),
+        col(&|s| s.state.vx_mps),
+        col(&|s| s.state.vz_mps),
+        col(&|s| s.state.theta_rad),
+        col(&|s| s.state.pitch_rate_radps),
+        col(&|s| s.state.mass_kg),
+        col(&|s| s.state.gimbal_rad),
+        col(&|s| s.thrust_cmd_n),
+        col(&|s| s.gimbal_rate_cmd_radps),
+    ])
+}
+
+fn write(
+    dir: &std::path::Path,
+    scenario: &Scenario,
+    f: &Flight,
+    v: &Value,
+) -> Result<Vec<PathBuf>, OutputError> {
+    let flown = flown(f);
+    // The first plan as `solve --out` writes it, with the flight overlaid.
+    let plan_json = f.first_plan.to_json();
+    let mut files = output::write_all(dir, scenario, &f.first_plan, &plan_json, Some(&flown))?;
+
+    let mut csv = String::from("t_s,x_m,z_m,vx_mps,vz_mps,theta_rad,pitch_rate_radps,mass_kg,delta_rad,thrust_cmd_n,gimbal_rate_cmd_radps,wind_mps\n");
+    for s in &f.trace {
+        let p = &s.state;
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{},{},{},{},{},{},{},{}",
+            s.t_s,
+            p.x_m,
+            p.z_m,
+            p.vx_mps,
+            p.vz_mps,
+            p.theta_rad,
+            p.pitch_rate_radps,
+            p.mass_kg,
+            p.gimbal_rad,
+            s.thrust_cmd_n,
+            s.gimbal_rate_cmd_radps,
+            s.wind_mps
+        );
+    }
+    let path = dir.join("flight.csv");
+    std::fs::write(&path, csv).map_err(|e| OutputError::io(&path, e))?;
+    files.push(path);
+
+    let mut csv = String::from("time_s,solve_ms,iterations,status,outcome\n");
+    for r in &f.replans {
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{}",
+            r.time_s,
+            r.solve_ms,
+            r.iterations,
+            r.status,
+            serde_json::to_value(r.outcome).unwrap_or_default().as_str().unwrap_or("")
+        );
+    }
+    let path = dir.join("replans.csv");
+    std::fs::write(&path, csv).map_err(|e| OutputError::io(&path, e))?;
+    files.push(path);
+
+    let path = dir.join("flight.json");
+    std::fs::write(&path, format!("{v}\n")).map_err(|e| OutputError::io(&path, e))?;
+    files.push(path);
+
+    files.extend(campaign_plot::timeline(dir, f)?);
+    Ok(files)
+}
