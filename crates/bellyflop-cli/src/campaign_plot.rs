@@ -25,7 +25,9 @@ fn both(
     dir: &Path,
     stem: &str,
     size: (u32, u32),
-    draw: &dyn for<'a> Fn(&DrawingArea<SVGBackend<'a>, plotters::coord::Shift>) -> Res<SVGBackend<'a>>,
+    draw: &dyn for<'a> Fn(
+        &DrawingArea<SVGBackend<'a>, plotters::coord::Shift>,
+    ) -> Res<SVGBackend<'a>>,
     draw_png: &dyn for<'a> Fn(
         &DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>,
     ) -> Res<BitMapBackend<'a>>,
@@ -49,12 +51,18 @@ fn both(
 }
 
 fn span(values: impl Iterator<Item = f64>, floor: f64) -> f64 {
-    values.filter(|v| v.is_finite()).fold(floor, |m, v| m.max(v.abs())) * 1.1
+    values
+        .filter(|v| v.is_finite())
+        .fold(floor, |m, v| m.max(v.abs()))
+        * 1.1
 }
 
 /// The re-plan timeline of one flight.
 pub fn timeline(dir: &Path, f: &Flight) -> Result<Vec<PathBuf>, OutputError> {
-    fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, plotters::coord::Shift>, f: &Flight) -> Res<DB> {
+    fn draw<DB: DrawingBackend>(
+        root: &DrawingArea<DB, plotters::coord::Shift>,
+        f: &Flight,
+    ) -> Res<DB> {
         root.fill(&WHITE)?;
         let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 2);
         let tmax = f.replans.iter().map(|r| r.time_s).fold(1.0, f64::max) + 0.5;
@@ -88,7 +96,11 @@ pub fn timeline(dir: &Path, f: &Flight) -> Result<Vec<PathBuf>, OutputError> {
                 .label_style((FONT, 15))
                 .draw()?;
             c.draw_series(f.replans.iter().map(|r| {
-                let y = if value == 0 { r.solve_ms } else { r.iterations as f64 };
+                let y = if value == 0 {
+                    r.solve_ms
+                } else {
+                    r.iterations as f64
+                };
                 Rectangle::new(
                     [(r.time_s - 0.15, 0.0), (r.time_s + 0.15, y)],
                     colour(r.outcome).filled(),
@@ -116,7 +128,14 @@ pub fn campaign(dir: &Path, rows: &[RunRow], name: &str) -> Result<Vec<PathBuf>,
         root.fill(&WHITE)?;
         let (left, right) = root.split_horizontally(root.dim_in_pixel().0 / 2);
         let landed: Vec<&RunRow> = rows.iter().filter(|r| r.outcome == "touchdown").collect();
-        let panels: [(&DrawingArea<DB, _>, &str, &str, f64, f64, fn(&RunRow) -> (f64, f64)); 2] = [
+        let panels: [(
+            &DrawingArea<DB, _>,
+            &str,
+            &str,
+            f64,
+            f64,
+            fn(&RunRow) -> (f64, f64),
+        ); 2] = [
             (
                 &left,
                 "position error x - x_f [m]",
@@ -168,7 +187,10 @@ pub fn campaign(dir: &Path, rows: &[RunRow], name: &str) -> Result<Vec<PathBuf>,
         rows: &[RunRow],
     ) -> Res<DB> {
         root.fill(&WHITE)?;
-        let ms: Vec<f64> = rows.iter().flat_map(|r| r.replan_ms.iter().copied()).collect();
+        let ms: Vec<f64> = rows
+            .iter()
+            .flat_map(|r| r.replan_ms.iter().copied())
+            .collect();
         let max = ms.iter().copied().fold(1.0, f64::max);
         let bins = 50usize;
         let width = max / bins as f64;

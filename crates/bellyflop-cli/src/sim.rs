@@ -74,14 +74,18 @@ pub fn load(
 }
 
 pub fn run(args: &SimArgs) -> ExitCode {
-    let (scenario, config) =
-        match load(&args.scenario, &args.config, args.open_loop, args.no_dispersions) {
-            Ok(v) => v,
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(EXIT_BAD_INPUT);
-            }
-        };
+    let (scenario, config) = match load(
+        &args.scenario,
+        &args.config,
+        args.open_loop,
+        args.no_dispersions,
+    ) {
+        Ok(v) => v,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
     if let Some(dir) = &args.out {
         if let Err(e) = output::prepare(dir) {
             eprintln!("error: --out {e}");
@@ -168,12 +172,13 @@ fn print_summary(f: &Flight, seed: u64, run: u64) {
     let times: Vec<f64> = f.replans.iter().map(|r| r.solve_ms).collect();
     let max = times.iter().copied().fold(0.0, f64::max);
     println!(
-        "re-plans      {} ({} accepted, {} failed, {} missed the deadline), slowest {:.1} ms",
+        "re-plans      {} ({} accepted, {} failed, {} missed the deadline), slowest {:.1} ms ({} slower than the period)",
         f.replans.len(),
         f.count(ReplanOutcome::Accepted),
         f.count(ReplanOutcome::Failed),
         f.count(ReplanOutcome::Missed),
-        max
+        max,
+        f.replans.iter().filter(|r| r.late).count()
     );
     for r in &f.replans {
         if r.outcome != ReplanOutcome::Accepted {
@@ -270,7 +275,10 @@ fn write(
             r.solve_ms,
             r.iterations,
             r.status,
-            serde_json::to_value(r.outcome).unwrap_or_default().as_str().unwrap_or("")
+            serde_json::to_value(r.outcome)
+                .unwrap_or_default()
+                .as_str()
+                .unwrap_or("")
         );
     }
     let path = dir.join("replans.csv");

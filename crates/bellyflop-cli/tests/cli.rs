@@ -1,18 +1,7 @@
 //! The `bellyflop` binary: JSON output, exit codes and error messages.
 
-use std::process::Command;
-
-fn bellyflop(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_bellyflop"))
-        .args(args)
-        .output()
-        .expect("the binary runs");
-    (
-        out.status.code().expect("exited normally, not by a signal"),
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-    )
-}
+mod common;
+use common::bellyflop;
 
 fn write_scenario(name: &str, edit: impl Fn(&str) -> String) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("bellyflop-cli-test-{}", std::process::id()));

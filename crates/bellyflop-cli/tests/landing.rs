@@ -1,18 +1,7 @@
 //! `bellyflop solve` and `bellyflop sweep` report the landing precision.
 
-use std::process::Command;
-
-fn bellyflop(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_bellyflop"))
-        .args(args)
-        .output()
-        .expect("the binary runs");
-    (
-        out.status.code().expect("exited normally, not by a signal"),
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-    )
-}
+mod common;
+use common::bellyflop;
 
 fn assert_landing_error(v: &serde_json::Value, what: &str) {
     let e = &v["landing_error"];

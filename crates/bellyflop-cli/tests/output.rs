@@ -1,19 +1,9 @@
 //! `bellyflop solve --out DIR` and `bellyflop init`: the files they write.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-fn bellyflop(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_bellyflop"))
-        .args(args)
-        .output()
-        .expect("the binary runs");
-    (
-        out.status.code().expect("exited normally, not by a signal"),
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-    )
-}
+mod common;
+use common::bellyflop;
 
 /// A fresh directory under the system temp dir, unique to this test.
 fn temp_dir(name: &str) -> PathBuf {

@@ -217,18 +217,24 @@ impl Planner {
         // 2–5 iterations from the shifted plan, where the exact form needs
         // 12–19, measured with examples/replan), kept only if it passes every
         // physical check; otherwise the exact form from the same reference.
+        // `s.solver.max_iterations` bounds both phases together.
         let mut sol = None;
+        let mut spent = 0;
         if s.solver.formulation == Formulation::Exact && s.solver.relaxed_first_iterations > 0 {
             let mut relaxed = s.clone();
             relaxed.solver.formulation = Formulation::Paper;
-            relaxed.solver.max_iterations = s.solver.relaxed_first_iterations;
+            relaxed.solver.max_iterations = s
+                .solver
+                .relaxed_first_iterations
+                .min(s.solver.max_iterations);
             let tr = Transcription::new(&relaxed).without_ground_bound();
             let guess = shifted_reference(plan, elapsed_s, &tr);
             let mut settings = relaxed.solver.clone();
             settings.trust_region_initial = WARM_TRUST_REGION;
             let first =
                 scvx::solve_from_with(&tr, guess, &settings, observer, &mut self.conic_relaxed);
-            if first.status == crate::Status::Solved {
+            spent = first.iterations;
+            if first.status == crate::Status::Solved || spent >= s.solver.max_iterations {
                 sol = Some(first);
             }
         }
@@ -239,7 +245,12 @@ impl Planner {
                 let guess = shifted_reference(plan, elapsed_s, &tr);
                 let mut settings = s.solver.clone();
                 settings.trust_region_initial = WARM_TRUST_REGION;
-                scvx::solve_from_with(&tr, guess, &settings, observer, &mut self.conic)
+                settings.max_iterations -= spent;
+                let mut sol =
+                    scvx::solve_from_with(&tr, guess, &settings, observer, &mut self.conic);
+                // Count the relaxed phase's iterations too.
+                sol.iterations += spent;
+                sol
             }
         };
         if sol.status == crate::Status::Solved {
