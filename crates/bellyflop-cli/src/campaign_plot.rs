@@ -128,14 +128,9 @@ pub fn campaign(dir: &Path, rows: &[RunRow], name: &str) -> Result<Vec<PathBuf>,
         root.fill(&WHITE)?;
         let (left, right) = root.split_horizontally(root.dim_in_pixel().0 / 2);
         let landed: Vec<&RunRow> = rows.iter().filter(|r| r.outcome == "touchdown").collect();
-        let panels: [(
-            &DrawingArea<DB, _>,
-            &str,
-            &str,
-            f64,
-            f64,
-            fn(&RunRow) -> (f64, f64),
-        ); 2] = [
+        // (area, x label, y label, x requirement, y requirement, the point)
+        type Panel<'a, A> = (&'a A, &'a str, &'a str, f64, f64, fn(&RunRow) -> (f64, f64));
+        let panels: [Panel<DrawingArea<DB, _>>; 2] = [
             (
                 &left,
                 "position error x - x_f [m]",

@@ -126,11 +126,8 @@ fn solve(args: SolveArgs) -> ExitCode {
             return ExitCode::from(EXIT_BAD_INPUT);
         }
     };
-    if let Some(dir) = &args.out {
-        if let Err(e) = output::prepare(dir) {
-            eprintln!("error: --out {e}");
-            return ExitCode::from(EXIT_BAD_INPUT);
-        }
+    if let Err(code) = output::prepare_or_exit(&args.out) {
+        return code;
     }
     let quiet = args.quiet || args.json;
     let mut progress = |r: &IterationRecord| {

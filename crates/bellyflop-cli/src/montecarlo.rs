@@ -207,11 +207,8 @@ pub fn run(args: &MonteCarloArgs) -> ExitCode {
         );
         return ExitCode::from(EXIT_BAD_INPUT);
     }
-    if let Some(dir) = &args.out {
-        if let Err(e) = output::prepare(dir) {
-            eprintln!("error: --out {e}");
-            return ExitCode::from(EXIT_BAD_INPUT);
-        }
+    if let Err(code) = output::prepare_or_exit(&args.out) {
+        return code;
     }
     let pool = match rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
@@ -262,20 +259,8 @@ pub fn run(args: &MonteCarloArgs) -> ExitCode {
         print_summary(&s);
     }
     if let Some(dir) = &args.out {
-        match write(dir, &rows, &s, &scenario) {
-            Ok(files) => {
-                if !args.json {
-                    let names: Vec<String> = files
-                        .iter()
-                        .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
-                        .collect();
-                    eprintln!("wrote {}: {}", dir.display(), names.join(", "));
-                }
-            }
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(output::EXIT_OUTPUT);
-            }
+        if let Err(code) = output::report(dir, write(dir, &rows, &s, &scenario), args.json) {
+            return code;
         }
     }
     ExitCode::SUCCESS

@@ -47,7 +47,21 @@ pub fn write_and_report(
     quiet: bool,
 ) -> Result<(), std::process::ExitCode> {
     let over = propagation.map(|p| overlay(solution, p));
-    match write_all(dir, scenario, solution, json, over.as_ref()) {
+    report(
+        dir,
+        write_all(dir, scenario, solution, json, over.as_ref()),
+        quiet,
+    )
+}
+
+/// After writing into `dir`: list the files on stderr (unless `quiet`), or
+/// print the error and return the exit code.
+pub fn report(
+    dir: &Path,
+    written: Result<Vec<PathBuf>, OutputError>,
+    quiet: bool,
+) -> Result<(), std::process::ExitCode> {
+    match written {
         Ok(files) => {
             if !quiet {
                 let names: Vec<String> = files
@@ -63,6 +77,18 @@ pub fn write_and_report(
             Err(std::process::ExitCode::from(EXIT_OUTPUT))
         }
     }
+}
+
+/// Create the `--out` directory before any work; on failure print the error
+/// and return the bad-input exit code.
+pub fn prepare_or_exit(dir: &Option<PathBuf>) -> Result<(), std::process::ExitCode> {
+    if let Some(dir) = dir {
+        if let Err(e) = prepare(dir) {
+            eprintln!("error: --out {e}");
+            return Err(std::process::ExitCode::from(crate::EXIT_BAD_INPUT));
+        }
+    }
+    Ok(())
 }
 
 /// The re-integrated trajectory as drawn dashed over the solution in the

@@ -86,11 +86,8 @@ pub fn run(args: &SimArgs) -> ExitCode {
             return ExitCode::from(EXIT_BAD_INPUT);
         }
     };
-    if let Some(dir) = &args.out {
-        if let Err(e) = output::prepare(dir) {
-            eprintln!("error: --out {e}");
-            return ExitCode::from(EXIT_BAD_INPUT);
-        }
+    if let Err(code) = output::prepare_or_exit(&args.out) {
+        return code;
     }
     let flight = match config.fly(&scenario, args.seed, args.run, args.out.is_some()) {
         Ok(f) => f,
@@ -106,20 +103,8 @@ pub fn run(args: &SimArgs) -> ExitCode {
         print_summary(&flight, args.seed, args.run);
     }
     if let Some(dir) = &args.out {
-        match write(dir, &scenario, &flight, &v) {
-            Ok(files) => {
-                if !args.json {
-                    let names: Vec<String> = files
-                        .iter()
-                        .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
-                        .collect();
-                    eprintln!("wrote {}: {}", dir.display(), names.join(", "));
-                }
-            }
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(output::EXIT_OUTPUT);
-            }
+        if let Err(code) = output::report(dir, write(dir, &scenario, &flight, &v), args.json) {
+            return code;
         }
     }
     match flight.outcome {

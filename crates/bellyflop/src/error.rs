@@ -50,3 +50,16 @@ impl InputError {
         }
     }
 }
+
+/// Parse TOML text into `T`; a syntax or type error gives its line and column.
+pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, InputError> {
+    toml::from_str(text).map_err(|e| InputError::toml(text, e))
+}
+
+/// Read a text file; a failure names the path.
+pub(crate) fn read_text(path: &std::path::Path) -> Result<String, InputError> {
+    std::fs::read_to_string(path).map_err(|e| InputError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })
+}

@@ -121,16 +121,7 @@ impl GuidanceConfig {
     /// Ranges of every field; the error names the field, value and range.
     pub fn validate(&self) -> Result<(), InputError> {
         let check = |field: &str, v: f64, lo: f64, hi: f64, open_lo: bool| {
-            let ok = v.is_finite() && (if open_lo { v > lo } else { v >= lo }) && v <= hi;
-            if ok {
-                Ok(())
-            } else {
-                Err(InputError::OutOfRange {
-                    field: format!("guidance.{field}"),
-                    value: v,
-                    allowed: format!("{}{lo}, {hi}]", if open_lo { '(' } else { '[' }),
-                })
-            }
+            crate::validate::in_range(&format!("guidance.{field}"), v, lo, hi, open_lo, false, "")
         };
         check("replan_rate_hz", self.replan_rate_hz, 0.0, 100.0, true)?;
         check("deadline_s", self.deadline_s, 0.0, 60.0, false)?;
@@ -666,18 +657,14 @@ pub struct SimConfig {
 impl SimConfig {
     /// Parse and validate a configuration.
     pub fn from_toml_str(text: &str) -> Result<Self, InputError> {
-        let c: SimConfig = toml::from_str(text).map_err(|e| InputError::toml(text, e))?;
+        let c: SimConfig = crate::error::parse_toml(text)?;
         c.validate()?;
         Ok(c)
     }
 
     /// Read, parse and validate a configuration file.
     pub fn from_file(path: &std::path::Path) -> Result<Self, InputError> {
-        let text = std::fs::read_to_string(path).map_err(|e| InputError::Io {
-            path: path.display().to_string(),
-            message: e.to_string(),
-        })?;
-        Self::from_toml_str(&text)
+        Self::from_toml_str(&crate::error::read_text(path)?)
     }
 
     pub fn validate(&self) -> Result<(), InputError> {

@@ -198,18 +198,14 @@ impl Scenario {
 
     /// Parse and validate a scenario from TOML text.
     pub fn from_toml_str(text: &str) -> Result<Self, InputError> {
-        let scenario: Scenario = toml::from_str(text).map_err(|e| InputError::toml(text, e))?;
+        let scenario: Scenario = crate::error::parse_toml(text)?;
         scenario.validate()?;
         Ok(scenario)
     }
 
     /// Read, parse and validate a scenario file.
     pub fn from_file(path: &std::path::Path) -> Result<Self, InputError> {
-        let text = std::fs::read_to_string(path).map_err(|e| InputError::Io {
-            path: path.display().to_string(),
-            message: e.to_string(),
-        })?;
-        Self::from_toml_str(&text)
+        Self::from_toml_str(&crate::error::read_text(path)?)
     }
 
     /// Check every field against its allowed range.

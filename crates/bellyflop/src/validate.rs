@@ -463,8 +463,9 @@ fn check_all(rows: &[(&str, f64, Range)]) -> Result<(), InputError> {
 }
 
 /// Check that a finite `value` lies between `lo` and `hi`, each end open or
-/// closed. NaN and ±inf are always out of range.
-fn in_range(
+/// closed. NaN and ±inf are always out of range. The error names the field,
+/// the value and the range (shared by every validated input of the crate).
+pub(crate) fn in_range(
     field: &str,
     value: f64,
     lo: f64,

@@ -60,8 +60,7 @@ pub fn run(
 }
 
 /// Check that `value` is finite and lies in `lo..hi` with each end open or
-/// closed; the error names the field, its value and the range, in the style
-/// of [`crate::validate`].
+/// closed ([`crate::validate`]'s check, with the ends as pairs).
 fn check_range(
     field: &str,
     value: f64,
@@ -69,25 +68,7 @@ fn check_range(
     (hi, hi_open): (f64, bool),
     unit: &str,
 ) -> Result<(), InputError> {
-    let above_lo = if lo_open { value > lo } else { value >= lo };
-    let below_hi = if hi_open { value < hi } else { value <= hi };
-    if value.is_finite() && above_lo && below_hi {
-        return Ok(());
-    }
-    let mut allowed = format!(
-        "{}{lo}, {hi}{}",
-        if lo_open { '(' } else { '[' },
-        if hi_open { ')' } else { ']' },
-    );
-    if !unit.is_empty() {
-        allowed.push(' ');
-        allowed.push_str(unit);
-    }
-    Err(InputError::OutOfRange {
-        field: field.into(),
-        value,
-        allowed,
-    })
+    crate::validate::in_range(field, value, lo, hi, lo_open, hi_open, unit)
 }
 
 #[cfg(test)]
