@@ -70,6 +70,7 @@ pub fn timeline(dir: &Path, f: &Flight) -> Result<Vec<PathBuf>, OutputError> {
         let its = span(f.replans.iter().map(|r| r.iterations as f64), 1.0);
         let colour = |o: ReplanOutcome| match o {
             ReplanOutcome::Accepted => BLUE,
+            ReplanOutcome::Usable => GREEN,
             ReplanOutcome::Failed => RED,
             ReplanOutcome::Missed => GREY,
         };
@@ -80,7 +81,7 @@ pub fn timeline(dir: &Path, f: &Flight) -> Result<Vec<PathBuf>, OutputError> {
             let mut c = ChartBuilder::on(area)
                 .caption(
                     if value == 0 {
-                        "Re-plans: solve time (blue accepted, red failed, grey missed deadline)"
+                        "Re-plans: solve time (blue solved, green usable at the budget, red failed, grey missed)"
                     } else {
                         "Re-plans: SCvx iterations"
                     },

@@ -76,6 +76,8 @@ pub struct RunRow {
     pub replans: usize,
     pub failed_replans: usize,
     pub missed_replans: usize,
+    /// Re-plans unconverged at the budget but flown (usable iterate).
+    pub usable_replans: usize,
     /// Re-plans slower than the wall-clock deadline (reported only).
     pub late_replans: usize,
     pub max_replan_ms: f64,
@@ -112,6 +114,7 @@ impl RunRow {
             replans: f.replans.len(),
             failed_replans: f.count(ReplanOutcome::Failed),
             missed_replans: f.count(ReplanOutcome::Missed),
+            usable_replans: f.count(ReplanOutcome::Usable),
             late_replans: f.replans.iter().filter(|r| r.late).count(),
             max_replan_ms: replan_ms.iter().copied().fold(0.0, f64::max),
             first_plan_nominal: f.first_plan_nominal,
@@ -179,6 +182,7 @@ pub fn summary(rows: &[RunRow], seed: u64, threads: usize, wall_s: f64, open_loo
         "replans": all_ms.len(),
         "failed_replans": rows.iter().map(|r| r.failed_replans).sum::<usize>(),
         "missed_replans": rows.iter().map(|r| r.missed_replans).sum::<usize>(),
+        "usable_replans": rows.iter().map(|r| r.usable_replans).sum::<usize>(),
         "late_replans": rows.iter().map(|r| r.late_replans).sum::<usize>(),
         "nominal_first_plans": rows.iter().filter(|r| r.first_plan_nominal).count(),
         "touchdown_position_m": percentiles(&of(&|r| r.x_error_m.abs())),
@@ -289,8 +293,8 @@ fn print_summary(s: &Value) {
         100.0 * s["in_spec_fraction"].as_f64().unwrap_or(0.0)
     );
     println!(
-        "re-plans      {} ({} failed, {} missed the deadline (iteration budget), {} slower than the period on the clock)",
-        s["replans"], s["failed_replans"], s["missed_replans"], s["late_replans"]
+        "re-plans      {} ({} failed, {} missed the deadline (iteration budget), {} flown unconverged at the budget, {} slower than the period on the clock)",
+        s["replans"], s["failed_replans"], s["missed_replans"], s["usable_replans"], s["late_replans"]
     );
     println!("                              p50        p95        p99        max");
     for (key, label) in [
@@ -329,11 +333,11 @@ fn write(
     scenario: &Scenario,
 ) -> Result<Vec<PathBuf>, OutputError> {
     let mut files = Vec::new();
-    let mut csv = String::from("run,outcome,time_s,x_error_m,vertical_velocity_mps,horizontal_velocity_mps,speed_mps,pitch_error_deg,pitch_rate_degps,fuel_kg,replans,failed_replans,missed_replans,late_replans,max_replan_ms,first_plan_nominal\n");
+    let mut csv = String::from("run,outcome,time_s,x_error_m,vertical_velocity_mps,horizontal_velocity_mps,speed_mps,pitch_error_deg,pitch_rate_degps,fuel_kg,replans,failed_replans,missed_replans,usable_replans,late_replans,max_replan_ms,first_plan_nominal\n");
     for r in rows {
         let _ = writeln!(
             csv,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.run,
             r.outcome,
             r.time_s,
@@ -347,6 +351,7 @@ fn write(
             r.replans,
             r.failed_replans,
             r.missed_replans,
+            r.usable_replans,
             r.late_replans,
             r.max_replan_ms,
             r.first_plan_nominal

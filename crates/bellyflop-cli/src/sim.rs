@@ -157,16 +157,17 @@ fn print_summary(f: &Flight, seed: u64, run: u64) {
     let times: Vec<f64> = f.replans.iter().map(|r| r.solve_ms).collect();
     let max = times.iter().copied().fold(0.0, f64::max);
     println!(
-        "re-plans      {} ({} accepted, {} failed, {} missed the deadline), slowest {:.1} ms ({} slower than the period)",
+        "re-plans      {} ({} solved, {} flown unconverged at the budget, {} failed, {} missed the deadline), slowest {:.1} ms ({} slower than the period)",
         f.replans.len(),
         f.count(ReplanOutcome::Accepted),
+        f.count(ReplanOutcome::Usable),
         f.count(ReplanOutcome::Failed),
         f.count(ReplanOutcome::Missed),
         max,
         f.replans.iter().filter(|r| r.late).count()
     );
     for r in &f.replans {
-        if r.outcome != ReplanOutcome::Accepted {
+        if matches!(r.outcome, ReplanOutcome::Failed | ReplanOutcome::Missed) {
             println!(
                 "  t = {:6.2} s  {:?}: {} after {} iterations, {:.1} ms. {}",
                 r.time_s, r.outcome, r.status, r.iterations, r.solve_ms, r.reason

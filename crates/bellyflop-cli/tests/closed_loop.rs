@@ -95,7 +95,7 @@ fn montecarlo_summary_has_the_documented_fields_and_is_thread_independent() {
         std::fs::read_to_string(dir.join("runs.csv"))
             .unwrap()
             .lines()
-            .map(|l| l.split(',').take(14).collect::<Vec<_>>().join(","))
+            .map(|l| l.split(',').take(15).collect::<Vec<_>>().join(","))
             .collect()
     };
     let a = strip(&d1);
