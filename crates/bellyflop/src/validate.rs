@@ -498,7 +498,11 @@ pub(crate) fn in_range(
 }
 
 /// Check an integer count against an inclusive range.
-fn count_in_range(field: &str, value: usize, (lo, hi): (usize, usize)) -> Result<(), InputError> {
+pub(crate) fn count_in_range(
+    field: &str,
+    value: usize,
+    (lo, hi): (usize, usize),
+) -> Result<(), InputError> {
     if (lo..=hi).contains(&value) {
         return Ok(());
     }
