@@ -998,6 +998,14 @@ mod tests {
         assert_eq!(its(&a), its(&b));
     }
 
+    /// The documented defaults file is the defaults.
+    #[test]
+    fn defaults_file_matches_the_defaults() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../scenarios/sim_defaults.toml");
+        assert_eq!(SimConfig::from_file(&path).unwrap(), SimConfig::default());
+    }
+
     #[test]
     fn config_toml_takes_defaults_and_names_bad_fields() {
         let c = SimConfig::from_toml_str("[guidance]\nreplan = false\n").unwrap();
