@@ -454,14 +454,22 @@ pub fn fly(
                 }
                 Ok(_) => ReplanOutcome::Failed,
             };
-            if outcome == ReplanOutcome::Accepted {
-                plan = planner
-                    .plan
-                    .clone()
-                    .expect("a solved re-plan sets the plan");
-                plan_start_s = t;
-            } else {
-                planner.plan = previous;
+            match (&result, outcome) {
+                (_, ReplanOutcome::Accepted) => {
+                    plan = planner
+                        .plan
+                        .clone()
+                        .expect("a solved re-plan sets the plan");
+                    plan_start_s = t;
+                }
+                // The planner keeps only solved plans; a usable iterate is
+                // adopted here, and warm-starts the next re-plan.
+                (Ok(sol), ReplanOutcome::Usable) => {
+                    plan = Plan::from_solution(sol);
+                    planner.plan = Some(plan.clone());
+                    plan_start_s = t;
+                }
+                _ => planner.plan = previous,
             }
             replans.push(ReplanEvent {
                 time_s: t,
