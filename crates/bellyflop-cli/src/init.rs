@@ -158,6 +158,8 @@ pub const DOCS: &[Doc] = &[
     // Environment.
     doc!("environment", "g0_mps2", "m/s^2", open_closed(0.0, 100.0),
         "Gravitational acceleration g0, also used in I_sp*g0."),
+    doc!("environment", "wind_x_mps", "m/s", closed(-100.0, 100.0),
+        "Steady horizontal wind W, positive along +x: drag acts on the air-relative velocity (Vx - W, Vz). 0 is the paper's still air."),
     // Initial state (Eq. 4).
     doc!("initial", "x_m", "m", POS_X, "Downrange position x of the CG at ignition."),
     doc!("initial", "z_m", "m", POS_Z,
@@ -216,6 +218,12 @@ pub const DOCS: &[Doc] = &[
     doc!("solver", "grow", "", FACTOR, "Radius growth factor (when rho >= rho2)."),
     doc!("solver", "relaxation_gap_tolerance", "", TOLERANCE,
         "Largest accepted relaxation gap max(1 - |T|/sigma) of a returned solution."),
+    doc!("solver", "thrust_margin_frac", "", closed_open(0.0, 0.5),
+        "Soft thrust margin mu: throttle outside [(1+mu)*T_min, (1-mu)*T_max] is allowed up to the engine's bounds, at a cost (closed-loop plans keep range for feedback this way); 0 is off."),
+    doc!("solver", "thrust_margin_weight", "", open_closed(0.0, 1e12),
+        "Cost of the soft thrust margin's use per node and unit of scaled sigma."),
+    doc!("solver", "terminal_lateral_weight", "", closed(0.0, 1e12),
+        "Soft terminal x and Vx: a miss costs this per unit of scaled miss; 0 keeps them hard (Eq. 4)."),
 ];
 
 /// Order and headings of the TOML tables.

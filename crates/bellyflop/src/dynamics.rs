@@ -42,6 +42,8 @@ pub struct Model {
     /// α = −1/(I_sp·g0) [s/m] (Eq. 16).
     pub alpha_spm: f64,
     pub c_ld_kgpm: f64,
+    /// Steady horizontal wind W [m/s]: drag acts on (Vx − W, Vz).
+    pub wind_x_mps: f64,
     /// L_T = −12·l_cg/(6r² + l²) [1/m] (Eq. 22).
     pub l_t_pm: f64,
     /// L_D = −12·(l_cp − l_cg)/(6r² + l²) [1/m] (Eq. 22).
@@ -64,6 +66,7 @@ impl Model {
             g0_mps2: env.g0_mps2,
             alpha_spm: -1.0 / (v.isp_s * env.g0_mps2),
             c_ld_kgpm: v.drag_coefficient_kgpm,
+            wind_x_mps: env.wind_x_mps,
             l_t_pm: -12.0 * v.cg_m / k,
             l_d_pm: -12.0 * (v.cp_m - v.cg_m) / k,
             inertia_per_mass_m2: k / 12.0,
@@ -77,8 +80,10 @@ impl Model {
         }
     }
 
-    /// Drag force per C_LD·‖V‖ scale: (Dx, Dz) = −C_LD·‖V‖·(Vx, Vz) [N] (Eq. 2).
+    /// Drag force (Dx, Dz) = −C_LD·‖V_a‖·V_a [N] on the air-relative velocity
+    /// V_a = (Vx − W, Vz) (Eq. 2; W = 0 in the paper).
     fn drag<D: DualNum<Primitive = f64> + Copy>(&self, vx: D, vz: D) -> (D, D) {
+        let vx = vx - self.wind_x_mps;
         let speed = (vx * vx + vz * vz + SPEED_EPS_MPS * SPEED_EPS_MPS).sqrt();
         let k = speed * (-self.c_ld_kgpm);
         (k * vx, k * vz)
@@ -239,7 +244,20 @@ mod tests {
 
     #[test]
     fn jacobians_match_central_differences() {
-        let m = model();
+        // Still air (the paper) and a 6-m/s wind.
+        for m in [
+            model(),
+            Model {
+                wind_x_mps: 6.0,
+                ..model()
+            },
+        ] {
+            jacobians_match_at(&m);
+        }
+    }
+
+    fn jacobians_match_at(m: &Model) {
+        let m = m.clone();
         let x = sample_state();
         for (form, u) in [
             (Formulation::Paper, vec![15.0, 6.0, 16.5, 0.1]),
@@ -316,6 +334,27 @@ mod tests {
         for r in 0..NX {
             assert!((paper[r] - lcvx[r]).abs() < 1e-12 * (1.0 + lcvx[r].abs()));
         }
+    }
+
+    /// Drag acts on the air-relative velocity: a vehicle moving with the
+    /// wind feels no horizontal drag, and a wind W at ground velocity V gives
+    /// the still-air drag at V − W.
+    #[test]
+    fn wind_enters_through_the_air_relative_velocity() {
+        let still = model();
+        let windy = Model {
+            wind_x_mps: 5.0,
+            ..model()
+        };
+        let s = [0.0, 100.0, 5.0, -40.0, 0.0, 0.0, 1e5];
+        let f = rhs_physical(&windy, &s, 0.0, 0.0);
+        let g = rhs_physical(&still, &[0.0, 100.0, 0.0, -40.0, 0.0, 0.0, 1e5], 0.0, 0.0);
+        assert_eq!(f[2], 0.0);
+        assert_eq!(&f[2..], &g[2..]);
+        let f = rhs_physical(&windy, &[0.0, 100.0, -3.0, -40.0, 0.3, 0.0, 1e5], 0.0, 0.0);
+        let g = rhs_physical(&still, &[0.0, 100.0, -8.0, -40.0, 0.3, 0.0, 1e5], 0.0, 0.0);
+        assert_eq!(&f[2..], &g[2..]);
+        assert!(f[2] > 0.0, "a head wind pushes back: {}", f[2]);
     }
 
     #[test]

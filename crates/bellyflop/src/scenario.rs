@@ -42,6 +42,11 @@ pub struct Vehicle {
 pub struct Environment {
     /// Gravitational acceleration g0 [m/s²], also used in I_sp·g0.
     pub g0_mps2: f64,
+    /// Steady horizontal wind W [m/s], positive along +x: the drag of Eq. (2)
+    /// acts on the air-relative velocity (Vx − W, Vz). Default 0, the paper's
+    /// still air. Closed-loop guidance sets it to its wind estimate.
+    #[serde(default)]
+    pub wind_x_mps: f64,
 }
 
 /// The state when the landing burn starts (Eq. 4, x(t0) = x0).
@@ -147,6 +152,21 @@ pub struct SolverSettings {
     pub grow: f64,
     /// Accepted relaxation gap max(1 − ‖T‖/σ) of a returned solution.
     pub relaxation_gap_tolerance: f64,
+    /// Soft thrust margin μ (0 = off): a throttle outside
+    /// [(1+μ)·T_min, (1−μ)·T_max] is allowed, up to the hard bounds, at a cost
+    /// of `thrust_margin_weight` per node and unit of scaled σ. Closed-loop
+    /// plans keep thrust range for feedback this way without declaring a
+    /// state infeasible that the engine can still land from.
+    pub thrust_margin_frac: f64,
+    /// Cost weight of the soft thrust margin's use (scaled units; the fuel
+    /// cost −ω̂(t_f) is of order one).
+    pub thrust_margin_weight: f64,
+    /// Soft terminal position and horizontal velocity (0 = hard, the
+    /// paper's Eq. 4): a miss of x(t_f) or Vx(t_f) costs this weight per
+    /// unit of scaled miss. A closed-loop re-plan that cannot null the
+    /// lateral error any more then returns the smallest miss instead of
+    /// failing.
+    pub terminal_lateral_weight: f64,
 }
 
 impl Default for SolverSettings {
@@ -169,6 +189,9 @@ impl Default for SolverSettings {
             shrink: 3.0,
             grow: 2.0,
             relaxation_gap_tolerance: 1e-6,
+            thrust_margin_frac: 0.0,
+            thrust_margin_weight: 100.0,
+            terminal_lateral_weight: 0.0,
         }
     }
 }

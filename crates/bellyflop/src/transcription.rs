@@ -9,6 +9,11 @@
 //! control ν⁺, ν⁻ on every collocation defect, buffers on the two σ bounds, and
 //! (paper formulation) ν⁺, ν⁻ on the linearized direction constraint (Eq. 27).
 //! Their weighted sum is the exact penalty that keeps every subproblem feasible.
+//! Two optional soft constraints for closed-loop plans follow, each at its own
+//! weight and part of the cost, not of the infeasibility: the use of a thrust
+//! margin ([`crate::scenario::SolverSettings::thrust_margin_frac`]) per node
+//! and side, and the misses of x(t_f) and Vx(t_f)
+//! ([`crate::scenario::SolverSettings::terminal_lateral_weight`]).
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{SolverStatus, SupportedConeT};
@@ -28,6 +33,15 @@ pub struct Trajectory {
     pub tf_s: f64,
 }
 
+impl Trajectory {
+    /// Every state, control and t_f is finite.
+    pub fn is_finite(&self) -> bool {
+        self.tf_s.is_finite()
+            && self.x.iter().flatten().all(|v| v.is_finite())
+            && self.u.iter().flatten().all(|v| v.is_finite())
+    }
+}
+
 /// Index map of the decision vector.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Layout {
@@ -36,6 +50,11 @@ pub struct Layout {
     /// Linearized path equalities per node with virtual control:
     /// 0 (exact), 1 (paper: direction, Eq. 27), 2 (vector: direction and magnitude).
     pub path_rows: usize,
+    /// Whether the soft thrust margin's variables are present
+    /// ([`crate::scenario::SolverSettings::thrust_margin_frac`]).
+    pub soft_margin: bool,
+    /// Whether x(t_f) and Vx(t_f) are soft (their misses are variables).
+    pub soft_terminal: bool,
 }
 
 impl Layout {
@@ -67,8 +86,26 @@ impl Layout {
         debug_assert!(r < self.path_rows);
         self.n_primal() + 2 * NX * self.n + 2 * self.n + 2 * (i * self.path_rows + r) + side
     }
-    pub fn n_var(&self) -> usize {
+    /// Use of the soft thrust margin below (side 0) or above (side 1) at node i.
+    pub fn margin(&self, i: usize, side: usize) -> usize {
+        debug_assert!(self.soft_margin);
+        self.n_penalty_end() + 2 * i + side
+    }
+    /// End of the exact-penalty variables (virtual control, buffers, path).
+    fn n_penalty_end(&self) -> usize {
         self.n_primal() + 2 * NX * self.n + 2 * self.n + 2 * self.path_rows * self.n
+    }
+    fn n_margin_end(&self) -> usize {
+        self.n_penalty_end() + if self.soft_margin { 2 * self.n } else { 0 }
+    }
+    /// Miss of the soft terminal x (c = 0) or Vx (c = 1), positive (side 0)
+    /// or negative part.
+    pub fn terminal_miss(&self, c: usize, side: usize) -> usize {
+        debug_assert!(self.soft_terminal);
+        self.n_margin_end() + 2 * c + side
+    }
+    pub fn n_var(&self) -> usize {
+        self.n_margin_end() + if self.soft_terminal { 4 } else { 0 }
     }
 }
 
@@ -150,6 +187,11 @@ pub struct Transcription {
     pub xf: [f64; 6],
     /// Exact-penalty weight λ.
     pub penalty: f64,
+    /// Soft thrust margin μ and its weight (μ = 0: off).
+    pub margin_frac: f64,
+    pub margin_weight: f64,
+    /// Weight of the soft terminal x and Vx.
+    pub terminal_weight: f64,
     /// Whether z ≥ z_f is imposed at every node (see `set_bounds`).
     pub ground_bound: bool,
     /// Structural nonzeros of ∂f/∂x and ∂f/∂u: `assemble` emits exactly these
@@ -255,6 +297,8 @@ impl Transcription {
                 Formulation::Paper => 1,
                 Formulation::Vector => 2,
             },
+            soft_margin: s.solver.thrust_margin_frac > 0.0,
+            soft_terminal: s.solver.terminal_lateral_weight > 0.0,
         };
         let scaling = Scaling::new(s, &model, form);
         let i = &s.initial;
@@ -286,6 +330,9 @@ impl Transcription {
             x0,
             xf,
             penalty: s.solver.virtual_control_weight,
+            margin_frac: s.solver.thrust_margin_frac,
+            margin_weight: s.solver.thrust_margin_weight,
+            terminal_weight: s.solver.terminal_lateral_weight,
             ground_bound: true,
             pattern_a: [[false; NX]; NX],
             pattern_b: [[false; NU_MAX]; NX],
@@ -484,11 +531,54 @@ impl Transcription {
         total
     }
 
-    /// The SCvx merit function J: scaled cost plus λ·(nonlinear constraint violation).
+    /// Cost of the soft thrust margin's use: its weight times the scaled σ
+    /// outside [(1+μ)·T_min, (1−μ)·T_max]/m, summed over the nodes.
+    fn margin_cost(&self, t: &Trajectory) -> f64 {
+        if !self.layout.soft_margin {
+            return 0.0;
+        }
+        let si = self.sigma_index();
+        let s_sigma = self.scaling.u_scale[si];
+        let (lo, hi) = self.margin_thrust_n();
+        let used: f64 = (0..self.layout.n)
+            .map(|i| {
+                let inv_m = (-t.x[i][ix::OMEGA]).exp();
+                let sigma = t.u[i][si];
+                ((lo * inv_m - sigma).max(0.0) + (sigma - hi * inv_m).max(0.0)) / s_sigma
+            })
+            .sum();
+        self.margin_weight * used
+    }
+
+    /// Cost of the soft terminal x and Vx: weight times the scaled misses.
+    fn terminal_cost(&self, t: &Trajectory) -> f64 {
+        if !self.layout.soft_terminal {
+            return 0.0;
+        }
+        let xn = &t.x[self.layout.n];
+        self.terminal_weight
+            * [ix::X, ix::VX]
+                .iter()
+                .map(|&c| (xn[c] - self.xf[c]).abs() / self.scaling.x_scale[c])
+                .sum::<f64>()
+    }
+
+    /// The soft thrust margin's throttle interval [(1+μ)·T_min, (1−μ)·T_max].
+    fn margin_thrust_n(&self) -> (f64, f64) {
+        (
+            self.model.min_thrust_n * (1.0 + self.margin_frac),
+            self.model.max_thrust_n * (1.0 - self.margin_frac),
+        )
+    }
+
+    /// The SCvx merit function J: scaled cost (with the soft constraints')
+    /// plus λ·(nonlinear constraint violation).
     pub fn merit(&self, t: &Trajectory) -> Merit {
         let l = self.layout;
         let omega_f = t.x[l.n][ix::OMEGA];
-        let cost = -(omega_f - self.scaling.x_offset[ix::OMEGA]) / self.scaling.x_scale[ix::OMEGA];
+        let cost = -(omega_f - self.scaling.x_offset[ix::OMEGA]) / self.scaling.x_scale[ix::OMEGA]
+            + self.margin_cost(t)
+            + self.terminal_cost(t);
         let d = self.defects(t);
         let defect_l1: f64 = d.iter().flatten().map(|v| v.abs()).sum();
         let defect_max = d.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -563,10 +653,19 @@ impl Transcription {
             );
         }
         for c in 0..6 {
-            eq.push(
-                &[(l.x(n, c), 1.0)],
-                (self.xf[c] - sc.x_offset[c]) / sc.x_scale[c],
-            );
+            let rhs = (self.xf[c] - sc.x_offset[c]) / sc.x_scale[c];
+            let soft = [ix::X, ix::VX].iter().position(|&s| s == c);
+            match soft {
+                Some(j) if l.soft_terminal => eq.push(
+                    &[
+                        (l.x(n, c), 1.0),
+                        (l.terminal_miss(j, 0), -1.0),
+                        (l.terminal_miss(j, 1), 1.0),
+                    ],
+                    rhs,
+                ),
+                _ => eq.push(&[(l.x(n, c), 1.0)], rhs),
+            }
         }
         // Paper formulation: linearized direction constraint (Eq. 27).
         if self.form == Formulation::Vector {
@@ -626,26 +725,33 @@ impl Transcription {
         let si = self.sigma_index();
         let s_sigma = sc.u_scale[si];
         let (s_om, o_om) = (sc.x_scale[ix::OMEGA], sc.x_offset[ix::OMEGA]);
+        let (lo, hi) = self.margin_thrust_n();
         for i in 0..n {
             let w0 = reference.x[i][ix::OMEGA];
             let e = (-w0).exp();
-            for (side, thrust, sign) in [
-                (0, self.model.min_thrust_n, -1.0),
-                (1, self.model.max_thrust_n, 1.0),
-            ] {
-                // sign·(σ − T e^{−ω̄}(1 − (ω − ω̄))) ≤ buffer
+            // sign·(σ − T e^{−ω̄}(1 − (ω − ω̄))) ≤ slack: the engine's bounds
+            // with penalized buffers, and (when on) the soft margin's
+            // interval with its use as the slack.
+            let engine = [
+                (self.model.min_thrust_n, -1.0, l.buffer(i, 0)),
+                (self.model.max_thrust_n, 1.0, l.buffer(i, 1)),
+            ];
+            let margin = l
+                .soft_margin
+                .then(|| [(lo, -1.0, l.margin(i, 0)), (hi, 1.0, l.margin(i, 1))]);
+            for (thrust, sign, slack) in engine.into_iter().chain(margin.into_iter().flatten()) {
                 let k = thrust * e;
                 ineq.push(
                     &[
                         (l.u(i, si), sign),
                         (l.x(i, ix::OMEGA), sign * k * s_om / s_sigma),
-                        (l.buffer(i, side), -1.0),
+                        (slack, -1.0),
                     ],
                     sign * k * (1.0 + w0 - o_om) / s_sigma,
                 );
             }
         }
-        // Penalty variables are non-negative.
+        // Penalty, margin and terminal-miss variables are non-negative.
         for p in l.n_primal()..l.n_var() {
             ineq.push(&[(p, -1.0)], 0.0);
         }
@@ -687,7 +793,9 @@ impl Transcription {
 
         let mut q = vec![0.0; l.n_var()];
         q[l.x(n, ix::OMEGA)] = -1.0;
-        q[l.n_primal()..].fill(self.penalty);
+        q[l.n_primal()..l.n_penalty_end()].fill(self.penalty);
+        q[l.n_penalty_end()..l.n_margin_end()].fill(self.margin_weight);
+        q[l.n_margin_end()..].fill(self.terminal_weight);
         let q_model = q.clone();
         let np = l.n_primal();
         let p = if proximal_weight > 0.0 {

@@ -117,6 +117,8 @@ const DRAG: Range = Range::closed(0.0, 1e5, "kg/m");
 
 /// g0: positive (I_sp·g0 is a divisor), at most 100 m/s² (Jupiter ≈ 25).
 const G0: Range = Range::open_closed(0.0, 100.0, "m/s^2");
+/// Steady wind: |W| ≤ 100 m/s, above any wind a vehicle lands in.
+const WIND: Range = Range::closed(-100.0, 100.0, "m/s");
 
 // ---------------------------------------------------------------------------
 // Boundary conditions (paper Section 4, Eq. 4). A landing burn starts at most
@@ -175,6 +177,11 @@ const TRUST_RADIUS: Range = Range::open_closed(0.0, 1e6, "");
 /// Acceptance-ratio thresholds ρ0 < ρ1 < ρ2: Mao et al. require them in
 /// [0, 1) (ρ0 = 0 is the common choice); their order is checked separately.
 const RHO: Range = Range::closed_open(0.0, 1.0, "");
+/// Soft thrust margin μ: 0 (off) up to, not including, 0.5, where
+/// (1−μ)·T_max would fall to half the engine.
+const MARGIN: Range = Range::closed_open(0.0, 0.5, "");
+/// Weight of a soft constraint that may be off: 0 (off) to 1e12.
+const SOFT_WEIGHT: Range = Range::closed(0.0, 1e12, "");
 /// Trust-region shrink and grow factors: strictly above 1 (else the radius
 /// does not change), at most 100.
 const FACTOR: Range = Range::open_closed(1.0, 100.0, "");
@@ -234,7 +241,10 @@ fn vehicle(v: &Vehicle) -> Result<(), InputError> {
 
 /// Environment ranges: see [`G0`].
 fn environment(e: &Environment) -> Result<(), InputError> {
-    check_all(&[("environment.g0_mps2", e.g0_mps2, G0)])
+    check_all(&[
+        ("environment.g0_mps2", e.g0_mps2, G0),
+        ("environment.wind_x_mps", e.wind_x_mps, WIND),
+    ])
 }
 
 /// Initial-state ranges: see [`POS_X`], [`POS_Z`], [`SPEED`], [`THETA`],
@@ -329,6 +339,17 @@ fn solver(s: &SolverSettings) -> Result<(), InputError> {
             "solver.relaxation_gap_tolerance",
             s.relaxation_gap_tolerance,
             TOLERANCE,
+        ),
+        ("solver.thrust_margin_frac", s.thrust_margin_frac, MARGIN),
+        (
+            "solver.thrust_margin_weight",
+            s.thrust_margin_weight,
+            WEIGHT,
+        ),
+        (
+            "solver.terminal_lateral_weight",
+            s.terminal_lateral_weight,
+            SOFT_WEIGHT,
         ),
     ])
 }

@@ -361,6 +361,8 @@ pub fn truth_rhs(
 ) -> [f64; 8] {
     let scaled = Model {
         c_ld_kgpm: model.c_ld_kgpm * truth.c_ld_factor,
+        // The velocity passed is already air-relative.
+        wind_x_mps: 0.0,
         ..model.clone()
     };
     let air = [y[0], y[1], y[2] - wind_x_mps, y[3], y[4], y[5], y[6]];
