@@ -252,15 +252,20 @@ fn write(
     std::fs::write(&path, csv).map_err(|e| OutputError::io(&path, e))?;
     files.push(path);
 
-    let mut csv = String::from("time_s,solve_ms,iterations,status,outcome\n");
+    let mut csv = String::from(
+        "time_s,solve_ms,iterations,status,max_defect,virtual_control,wind_estimate_mps,outcome\n",
+    );
     for r in &f.replans {
         let _ = writeln!(
             csv,
-            "{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{}",
             r.time_s,
             r.solve_ms,
             r.iterations,
             r.status,
+            r.max_defect,
+            r.virtual_control,
+            r.wind_estimate_mps,
             serde_json::to_value(r.outcome)
                 .unwrap_or_default()
                 .as_str()

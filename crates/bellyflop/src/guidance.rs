@@ -30,8 +30,27 @@
 //!
 //! Each re-plan has a deadline, an SCvx iteration budget sized to fit the
 //! re-plan period ([`GuidanceConfig::replan_max_iterations`]). A solve that
-//! misses it or fails is logged and the previous plan carries on. Re-planning stops near touchdown (time-to-go or altitude), and the last
-//! plan is flown to the ground.
+//! misses it or fails is logged and the previous plan carries on; with
+//! [`GuidanceConfig::continue_missed`] the next re-plan starts from the
+//! missed one's iterate, so re-plans add up their iterations.
+//!
+//! Four things keep the re-plans feasible to the end:
+//!
+//! - the plans end at a gate ([`GuidanceConfig::gate_height_m`], 3 m above
+//!   the pad, descending at 2 m/s), where the terminal descent takes over at
+//!   about hover thrust; a fuel-optimal plan to the pad itself ends on its
+//!   thrust limit, and a vehicle slightly behind it cannot stop;
+//! - the thrust margin is soft ([`GuidanceConfig::thrust_margin_soft`]):
+//!   a re-plan may use the engine's full range where it must, at a cost;
+//! - the re-plans fly in the wind the [`WindEstimator`] finds from the
+//!   measured velocity, not in still air.
+//! - the re-plans' terminal x and Vx are soft
+//!   ([`GuidanceConfig::terminal_lateral_weight`]): late in the descent a
+//!   re-plan that cannot null the lateral error returns the smallest miss
+//!   rather than failing and leaving a stale plan in force.
+//!
+//! Re-planning stops near the gate (time-to-go or altitude), and the
+//! terminal descent flies to the ground.
 //!
 //! The first plan is a cold solve from the measured initial state, computed
 //! before the run starts (as the paper's first plan is); if it fails, the
@@ -49,6 +68,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::dynamics::ix;
 use crate::error::InputError;
+use crate::navigation::{PositionFilter, WindEstimator};
 use crate::replan::{initial_state, Plan, Planner};
 use crate::scenario::Scenario;
 use crate::scvx::Silent;
@@ -76,13 +96,26 @@ pub struct GuidanceConfig {
     /// within 1 cm and 0.03 m/s, and 12 runs the campaign 25 % faster than
     /// 20. Range 1 to 1000.
     pub replan_max_iterations: usize,
+    /// Iterations of the re-plans' relaxed first phase (the paper's
+    /// formulation, [`crate::scenario::SolverSettings::relaxed_first_iterations`]),
+    /// within the budget; the cold first plan keeps the scenario's.
+    /// Default 0: from a warm start the relaxed phase often spent its 10
+    /// iterations without converging and left the exact phase 2 (of the 42
+    /// runs outside spec in the first 1000-run campaign with the gate, 18
+    /// land within spec with 0 and 19 with 2; 100-run campaigns unchanged).
+    /// The exact phase then meets the dynamics within the budget but seldom
+    /// its step tolerance (the trust region oscillates on the singular
+    /// arcs), so most re-plans are flown `usable`. Range 0 to 1000.
+    pub replan_relaxed_iterations: usize,
     /// Wall-clock deadline of one re-plan [s], reported only (re-plans past
     /// it count as `late`); 0 means the re-plan period. Default 0.
     pub deadline_s: f64,
     /// No re-plan once the plan's time-to-go is below this [s]; the terminal
-    /// descent flies the rest. Default 3.
+    /// descent flies the rest. Plans end at the gate
+    /// ([`GuidanceConfig::gate_height_m`]), so this is the time to the gate.
+    /// Default 1.
     pub stop_time_to_go_s: f64,
-    /// No re-plan below this measured altitude above the pad [m]. Default 5.
+    /// No re-plan below this measured altitude above the gate [m]. Default 2.
     pub stop_altitude_m: f64,
     /// Stop re-planning once the plan's final burn (thrust at the planning
     /// limit) has begun. Default false: re-plans on the final burn often
@@ -107,6 +140,61 @@ pub struct GuidanceConfig {
     /// speed p95 1.4 m/s at 0.05, 1.2 at 0.08, 1.0 at 0.12); each 0.01 costs
     /// about 40 kg of propellant. Range [0, 0.3].
     pub thrust_margin_frac: f64,
+    /// Warm-start the next re-plan from a missed re-plan's iterate (not
+    /// flown) rather than from the flown plan, so that successive re-plans
+    /// add up their iterations. Default true (100-run campaign: 95 → 96 %
+    /// within spec; a run whose re-plans all missed after the wind estimate
+    /// moved the optimum now lands within 0.2 m).
+    pub continue_missed: bool,
+    /// Estimate the wind from the measured velocity
+    /// ([`WindEstimator`]) and plan each re-plan in it. Default true. The
+    /// plans otherwise assume still air: with the wind dispersion off, 100
+    /// of 100 runs landed within spec, against 94 with it; with the
+    /// estimate 95, and the horizontal touchdown speed p95 fell from 0.71
+    /// to 0.43 m/s.
+    pub wind_estimate: bool,
+    /// Make the thrust margin soft: plans may use the engine's full range
+    /// where they must, at a cost ([`crate::scenario::SolverSettings::thrust_margin_frac`],
+    /// weight `thrust_margin_weight`), so a vehicle that has fallen
+    /// slightly behind its plan on the final burn still gets a re-plan
+    /// instead of an infeasible one. False: the margin is a hard limit.
+    /// Default true: with the gate, 100-run campaigns put 70 % of runs
+    /// within spec with the hard margin and 94 % with the soft one.
+    pub thrust_margin_soft: bool,
+    /// Cost weight of the soft margin's use (scaled units, where the fuel
+    /// cost is of order one). It must stay below the virtual-control weight
+    /// λ by the ratio of the two variables' scales, or SCvx prefers virtual
+    /// control (it settled "infeasible" on states the full engine can land
+    /// from), and high enough that the plans keep the margin where they can.
+    /// Default 100 (100-run campaigns: 73, 99, 97 and 96 % within spec at
+    /// 10, 100, 300 and 1000; with the other defaults of their time).
+    /// Range (0, 1e6].
+    pub thrust_margin_weight: f64,
+    /// Height of the plans' end above the pad [m] (the gate); the terminal
+    /// descent flies from there to touchdown. 0 plans to the pad itself.
+    /// A fuel-optimal plan ends on full (planning) thrust, so a vehicle
+    /// that reaches the pad's neighbourhood slightly behind its plan has no
+    /// thrust left to stop; at the gate the terminal descent needs about
+    /// hover thrust, half the engine's. Default 3 (100-run campaigns with
+    /// the soft margin: 93, 94 and 83 % within spec at 2, 3 and 5 m; the
+    /// plan-to-the-pad design of 2026-11-30 reached 79 %). It costs 150–200
+    /// kg of propellant (fuel p50). Range [0, 50].
+    pub gate_height_m: f64,
+    /// Descent speed of the plans at the gate [m/s]. Default 2 (84 % within
+    /// spec at 3). Range [0, 10].
+    pub gate_speed_mps: f64,
+    /// Weight of the re-plans' soft terminal x and Vx
+    /// ([`crate::scenario::SolverSettings::terminal_lateral_weight`]);
+    /// 0 = hard. In the last seconds a late re-plan can seldom null the
+    /// lateral error any more (the pitch dynamics are slow); with hard
+    /// terminal x and Vx it failed, and the stale plan flew the vehicle past
+    /// the pad. Default 1000 (of the 42 runs above, 18, 34 and 39 land
+    /// within spec at 0, 100 and 1000; 100-run campaigns 100 and 98 %
+    /// within spec with seeds 1 and 2). A soft lateral constraint at the
+    /// gate, |Vx| ≤ 0.5 m/s + k·(z − z_gate) on every node, did not help
+    /// (16 and 15 of the 42 at k = 0.1 and 0.2 /s) and was removed.
+    /// Range [0, 1e12].
+    pub terminal_lateral_weight: f64,
     /// Nozzle margin kept for the pitch loop: plans use δ_max·(1 − μ_δ) and
     /// χ_max·(1 − μ_δ). Default 0.2. Range [0, 0.5].
     pub gimbal_margin_frac: f64,
@@ -131,13 +219,21 @@ impl Default for GuidanceConfig {
             replan: true,
             replan_rate_hz: 2.0,
             replan_max_iterations: 12,
+            replan_relaxed_iterations: 0,
             deadline_s: 0.0,
-            stop_time_to_go_s: 3.0,
-            stop_altitude_m: 5.0,
+            stop_time_to_go_s: 1.0,
+            stop_altitude_m: 2.0,
             stop_at_final_burn: false,
             replan_nodes: 10,
             feedback: true,
             thrust_margin_frac: 0.10,
+            continue_missed: true,
+            wind_estimate: true,
+            thrust_margin_soft: true,
+            thrust_margin_weight: 100.0,
+            gate_height_m: 3.0,
+            gate_speed_mps: 2.0,
+            terminal_lateral_weight: 1000.0,
             gimbal_margin_frac: 0.2,
             position_filter_s: 1.0,
             touchdown_speed_mps: 0.5,
@@ -162,6 +258,18 @@ impl GuidanceConfig {
             false,
         )?;
         check(
+            "terminal_lateral_weight",
+            self.terminal_lateral_weight,
+            0.0,
+            1e12,
+            false,
+        )?;
+        crate::validate::count_in_range(
+            "guidance.replan_relaxed_iterations",
+            self.replan_relaxed_iterations,
+            (0, 1000),
+        )?;
+        check(
             "stop_time_to_go_s",
             self.stop_time_to_go_s,
             0.0,
@@ -175,6 +283,13 @@ impl GuidanceConfig {
             0.0,
             0.3,
             false,
+        )?;
+        check(
+            "thrust_margin_weight",
+            self.thrust_margin_weight,
+            0.0,
+            1e6,
+            true,
         )?;
         check(
             "gimbal_margin_frac",
@@ -198,6 +313,8 @@ impl GuidanceConfig {
             true,
         )?;
         check("flare_height_m", self.flare_height_m, 0.0, 10.0, false)?;
+        check("gate_height_m", self.gate_height_m, 0.0, 50.0, false)?;
+        check("gate_speed_mps", self.gate_speed_mps, 0.0, 10.0, false)?;
         if self.replan_nodes != 0 {
             crate::validate::count_in_range("guidance.replan_nodes", self.replan_nodes, (4, 100))?;
         }
@@ -252,6 +369,9 @@ pub struct ReplanEvent {
     /// returned iterate (scaled; see `solution::Checks`).
     pub max_defect: f64,
     pub virtual_control: f64,
+    /// The wind the re-plan was made in [m/s] (the estimate, or the
+    /// scenario's steady wind without [`GuidanceConfig::wind_estimate`]).
+    pub wind_estimate_mps: f64,
     pub outcome: ReplanOutcome,
 }
 
@@ -342,8 +462,20 @@ pub fn fly(
     // The planner's engine: the true one less the feedback margin.
     let mut planning = scenario.clone();
     let mu = guidance.thrust_margin_frac;
-    planning.vehicle.min_thrust_n *= 1.0 + mu;
-    planning.vehicle.max_thrust_n *= 1.0 - mu;
+    if guidance.thrust_margin_soft {
+        planning.solver.thrust_margin_frac = mu;
+        planning.solver.thrust_margin_weight = guidance.thrust_margin_weight;
+    } else {
+        planning.vehicle.min_thrust_n *= 1.0 + mu;
+        planning.vehicle.max_thrust_n *= 1.0 - mu;
+    }
+    // Plans end at the gate; the terminal descent aims at the pad.
+    let pad = scenario.terminal.clone();
+    let steady_wind_mps = scenario.environment.wind_x_mps;
+    planning.terminal.z_m += guidance.gate_height_m;
+    planning.terminal.vz_mps -= guidance.gate_speed_mps;
+    // The plan's (soft or hard) thrust limit.
+    let planning_max_thrust_n = model.max_thrust_n * (1.0 - mu);
     planning.vehicle.max_gimbal_deg *= 1.0 - guidance.gimbal_margin_frac;
     planning.vehicle.max_gimbal_rate_degps *= 1.0 - guidance.gimbal_margin_frac;
     planning.validate()?;
@@ -375,6 +507,8 @@ pub fn fly(
     };
     // Re-plans run on the iteration budget (the cold first plan does not).
     planner.scenario.solver.max_iterations = guidance.replan_max_iterations;
+    planner.scenario.solver.relaxed_first_iterations = guidance.replan_relaxed_iterations;
+    planner.scenario.solver.terminal_lateral_weight = guidance.terminal_lateral_weight;
     if guidance.replan_nodes > 0 {
         let d = &mut planner.scenario.discretization;
         d.nodes = guidance.replan_nodes;
@@ -390,18 +524,23 @@ pub fn fly(
             initial_mass_kg,
             keep_trace,
             &model,
+            steady_wind_mps,
         ));
     };
 
     let period_s = 1.0 / guidance.replan_rate_hz;
     let deadline_s = guidance.deadline();
     let mut plan_start_s = 0.0;
+    // Start time of the planner's warm start (the flown plan, or the last
+    // missed re-plan's iterate with `continue_missed`).
+    let mut warm_start_s = 0.0;
     let mut next_replan_s = period_s;
     let mut replans = Vec::new();
     let mut trace = Vec::new();
     let mut terminal = false;
     let mut final_burn = false;
     let mut filter = PositionFilter::new(guidance.position_filter_s, plant.dt_s());
+    let mut wind_estimator = WindEstimator::new(plant.dt_s(), steady_wind_mps);
     loop {
         let t = plant.time_s();
         let measured = filter.update(realization.measure(plant.state()));
@@ -418,7 +557,7 @@ pub fn fly(
                 let tp = t - plan_start_s + period_s;
                 let x = plan.state_at(tp);
                 let (sigma, _) = plan.flight_controls_at(tp);
-                sigma * x[ix::OMEGA].exp() >= FINAL_BURN_FRACTION * scenario.vehicle.max_thrust_n
+                sigma * x[ix::OMEGA].exp() >= FINAL_BURN_FRACTION * planning_max_thrust_n
             });
         if guidance.replan
             && t + 1e-9 >= next_replan_s
@@ -432,8 +571,12 @@ pub fn fly(
             let mut x = lcvx(&measured);
             x[ix::DELTA] = x[ix::DELTA].clamp(-gimbal_max_rad, gimbal_max_rad);
             let state = initial_state(&x);
+            if guidance.wind_estimate {
+                planner.scenario.environment.wind_x_mps =
+                    wind_estimator.wind().0.clamp(-100.0, 100.0);
+            }
             let start = Instant::now();
-            let result = planner.replan(&state, t - plan_start_s, &mut Silent);
+            let result = planner.replan(&state, t - warm_start_s, &mut Silent);
             let solve_ms = start.elapsed().as_secs_f64() * 1e3;
             let (iterations, status, reason) = match &result {
                 Ok(sol) => (sol.iterations, sol.status, sol.message.clone()),
@@ -462,6 +605,7 @@ pub fn fly(
                         .clone()
                         .expect("a solved re-plan sets the plan");
                     plan_start_s = t;
+                    warm_start_s = t;
                 }
                 // The planner keeps only solved plans; a usable iterate is
                 // adopted here, and warm-starts the next re-plan.
@@ -469,6 +613,16 @@ pub fn fly(
                     plan = Plan::from_solution(sol);
                     planner.plan = Some(plan.clone());
                     plan_start_s = t;
+                    warm_start_s = t;
+                }
+                // A missed re-plan is not flown, but its iterate is nearer
+                // the new optimum than the flown plan: the next re-plan
+                // continues from it.
+                (Ok(sol), ReplanOutcome::Missed)
+                    if guidance.continue_missed && sol.trajectory.is_finite() =>
+                {
+                    planner.plan = Some(Plan::from_solution(sol));
+                    warm_start_s = t;
                 }
                 _ => planner.plan = previous,
             }
@@ -484,6 +638,7 @@ pub fn fly(
                 reason,
                 max_defect,
                 virtual_control,
+                wind_estimate_mps: planner.scenario.environment.wind_x_mps,
                 outcome,
             });
         }
@@ -491,13 +646,7 @@ pub fn fly(
         // The terminal descent takes over where re-planning stops.
         terminal |= guidance.feedback && (time_to_go <= guidance.stop_time_to_go_s || !high_enough);
         let cmd = if terminal {
-            terminal_command(
-                &measured,
-                &scenario.terminal,
-                guidance,
-                plant.dt_s(),
-                &model,
-            )
+            terminal_command(&measured, &pad, guidance, plant.dt_s(), &model)
         } else {
             command(
                 &plan,
@@ -508,7 +657,8 @@ pub fn fly(
                 &model,
             )
         };
-        let wind = realization.wind_at_step(plant.dt_s());
+        wind_estimator.update(&measured, &cmd, &model);
+        let wind = steady_wind_mps + realization.wind_at_step(plant.dt_s());
         if keep_trace {
             trace.push(TraceSample {
                 t_s: t,
@@ -538,56 +688,6 @@ pub fn fly(
                 trace,
             });
         }
-    }
-}
-
-/// A complementary filter on the navigation output's position: the position
-/// estimate is carried forward with the measured velocity and pulled toward
-/// the measured position with time constant τ,
-/// p̂ₖ = p̂ₖ₋₁ + v̂ₖ·Δt + (Δt/τ)·(pₖ − p̂ₖ₋₁ − v̂ₖ·Δt).
-///
-/// The navigation noise is white at the control rate (0.2 m and 0.05 m/s by
-/// default); the terminal descent divides by the height above the pad, so
-/// raw position noise of 0.2 m near the ground makes its thrust command
-/// jump. With τ = 1 s at 100 Hz the estimate's noise is about
-/// 0.2·√(Δt/2τ) ≈ 0.014 m from the position plus a few millimetres from the
-/// integrated velocity noise (the test measures < 0.04 m rms). Velocity,
-/// attitude and mass pass through.
-#[derive(Debug, Clone)]
-pub struct PositionFilter {
-    gain: f64,
-    dt_s: f64,
-    estimate: Option<(f64, f64)>,
-}
-
-impl PositionFilter {
-    /// A filter of time constant `tau_s` (0: pass-through) at step `dt_s`.
-    pub fn new(tau_s: f64, dt_s: f64) -> Self {
-        let gain = if tau_s > 0.0 {
-            (dt_s / tau_s).min(1.0)
-        } else {
-            1.0
-        };
-        PositionFilter {
-            gain,
-            dt_s,
-            estimate: None,
-        }
-    }
-
-    /// Filter one measurement.
-    pub fn update(&mut self, mut m: PlantState) -> PlantState {
-        let (x, z) = match self.estimate {
-            None => (m.x_m, m.z_m),
-            Some((x, z)) => {
-                let (xp, zp) = (x + m.vx_mps * self.dt_s, z + m.vz_mps * self.dt_s);
-                (xp + self.gain * (m.x_m - xp), zp + self.gain * (m.z_m - zp))
-            }
-        };
-        self.estimate = Some((x, z));
-        m.x_m = x;
-        m.z_m = z;
-        m
     }
 }
 
@@ -786,6 +886,7 @@ fn fall_without_plan(
     initial_mass_kg: f64,
     keep_trace: bool,
     model: &crate::dynamics::Model,
+    steady_wind_mps: f64,
 ) -> Flight {
     let mut trace = Vec::new();
     loop {
@@ -793,7 +894,7 @@ fn fall_without_plan(
             thrust_n: model.min_thrust_n,
             gimbal_rate_radps: 0.0,
         };
-        let wind = realization.wind_at_step(plant.dt_s());
+        let wind = steady_wind_mps + realization.wind_at_step(plant.dt_s());
         if keep_trace {
             trace.push(TraceSample {
                 t_s: plant.time_s(),
@@ -891,7 +992,8 @@ mod tests {
         assert!(td.pitch_error_deg.abs() < 2.0, "{td:?}");
         assert!(!f.replans.is_empty());
         assert_eq!(f.count(ReplanOutcome::Failed), 0, "{:?}", f.replans);
-        // Re-planning goes on through the final burn until 3 s to go.
+        // Re-planning goes on through the final burn until 1 s before the
+        // gate, then the terminal descent flies the last 2.5-3 s.
         let Outcome::Touchdown(td) = f.outcome else {
             unreachable!()
         };
@@ -957,43 +1059,6 @@ mod tests {
         // offset (docs/guidance.md), within the 1-m/s touchdown speed.
         assert!(td.speed_mps <= 1.0, "{td:?}");
         assert!(td.pitch_error_deg.abs() < 1.0, "{td:?}");
-    }
-
-    /// The position filter cuts white navigation noise by more than 5×
-    /// without lagging a moving vehicle.
-    #[test]
-    fn position_filter_removes_noise_without_lag() {
-        use rand::SeedableRng;
-        use rand_distr::{Distribution, StandardNormal};
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let dt = 0.01;
-        let mut f = PositionFilter::new(1.0, dt);
-        let (mut sum_sq, mut sum, mut n) = (0.0, 0.0, 0.0);
-        for k in 0..3000 {
-            let t = k as f64 * dt;
-            let truth_z = 100.0 - 5.0 * t;
-            let noise: f64 = StandardNormal.sample(&mut rng);
-            let v_noise: f64 = StandardNormal.sample(&mut rng);
-            let m = PlantState {
-                x_m: 0.0,
-                z_m: truth_z + 0.2 * noise,
-                vx_mps: 0.0,
-                vz_mps: -5.0 + 0.05 * v_noise,
-                theta_rad: 0.0,
-                pitch_rate_radps: 0.0,
-                mass_kg: 1e5,
-                gimbal_rad: 0.0,
-            };
-            let e = f.update(m).z_m - truth_z;
-            if k >= 500 {
-                sum_sq += e * e;
-                sum += e;
-                n += 1.0;
-            }
-        }
-        let (mean, rms) = (sum / n, (sum_sq / n).sqrt());
-        assert!(rms < 0.04, "rms {rms}");
-        assert!(mean.abs() < 0.02, "bias {mean}");
     }
 
     /// The same (seed, run) flies the same flight.

@@ -12,12 +12,14 @@
 //! - [`replan`]: warm re-plans from the shifted previous plan;
 //! - [`propagate`]: landing precision by re-integrating the nonlinear model;
 //! - [`sim`]: the truth plant and Monte-Carlo dispersions for closed-loop guidance;
+//! - [`navigation`]: filters on the measured state (position, wind);
 //! - [`guidance`]: the closed loop — navigation, re-planning, control.
 pub mod conic;
 pub mod dynamics;
 pub mod error;
 pub mod guidance;
 pub mod mesh;
+pub mod navigation;
 pub mod propagate;
 pub mod radau;
 pub mod replan;
