@@ -1,21 +1,31 @@
 //! Warm re-plan against a cold solve (issue 5): solve the paper's case, move
 //! 0.5 s along the plan, and re-plan from the plan's own state there.
 //!
-//! `cargo run --release -p bellyflop --example replan [N ...]`
+//! `cargo run --release -p bellyflop --example replan [N ...] [--relaxed K] [--proximal W]`
 //!
 //! Prints, per N, the iterations and wall time of the cold solve and of the
 //! warm re-plan, the re-plan's final mass against the cold plan's, and whether
-//! both are `solved`. Timing lives in the criterion bench (`warm_replan`);
-//! these are single runs.
+//! both are `solved`. `--relaxed K` and `--proximal W` set the re-plan's
+//! `solver.relaxed_first_iterations` and `solver.proximal_weight` (the cold
+//! solve keeps the scenario's). Timing lives in the criterion bench
+//! (`warm_replan`); these are single runs.
 
 use bellyflop::replan::{initial_state, Planner};
 use bellyflop::scvx::Silent;
 use bellyflop::Scenario;
 
 fn main() {
-    let ns: Vec<usize> = std::env::args()
-        .skip(1)
-        .filter_map(|a| a.parse().ok())
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let flag = |name: &str| -> Option<f64> {
+        let i = args.iter().position(|a| a == name)?;
+        args.get(i + 1)?.parse().ok()
+    };
+    let (relaxed, proximal) = (flag("--relaxed"), flag("--proximal"));
+    let ns: Vec<usize> = args
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i == 0 || !args[i - 1].starts_with("--"))
+        .filter_map(|(_, a)| a.parse().ok())
         .collect();
     let ns = if ns.is_empty() { vec![10, 20, 40] } else { ns };
     println!("  N  cold its    ms  status   | warm its    ms  status   m_f change");
@@ -25,6 +35,12 @@ fn main() {
         let mut planner = Planner::new(s);
         let cold = planner.cold(&mut Silent);
         let plan = planner.plan.clone().expect("cold solve solved");
+        if let Some(k) = relaxed {
+            planner.scenario.solver.relaxed_first_iterations = k as usize;
+        }
+        if let Some(w) = proximal {
+            planner.scenario.solver.proximal_weight = w;
+        }
         let state = initial_state(&plan.state_at(0.5));
         let warm = planner
             .replan(&state, 0.5, &mut Silent)
