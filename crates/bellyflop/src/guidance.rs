@@ -657,7 +657,9 @@ pub fn fly(
                 &model,
             )
         };
-        wind_estimator.update(&measured, &cmd, &model);
+        if guidance.wind_estimate {
+            wind_estimator.update(&measured, &cmd, &model);
+        }
         let wind = steady_wind_mps + realization.wind_at_step(plant.dt_s());
         if keep_trace {
             trace.push(TraceSample {

@@ -6,7 +6,10 @@
 //!   estimates the steady wind from the drag it causes, so re-plans fly with
 //!   the wind the vehicle is in rather than the still air of Eq. (2).
 
-use crate::dynamics::Model;
+use nalgebra::{Matrix2, Vector2};
+use num_dual::Dual64;
+
+use crate::dynamics::{self, Model};
 use crate::sim::{Command, PlantState};
 
 /// A complementary filter on the navigation output's position: the position
@@ -91,7 +94,7 @@ pub const WIND_PRIOR_SIGMA_MPS: f64 = 3.5;
 pub struct WindEstimator {
     dt_s: f64,
     /// (V̂x, Ŵ) and their covariance, once the first measurement arrived.
-    state: Option<([f64; 2], [[f64; 2]; 2])>,
+    state: Option<(Vector2<f64>, Matrix2<f64>)>,
     prior_wind_mps: f64,
     /// The previous measurement and the command applied since.
     last: Option<(PlantState, Command)>,
@@ -112,7 +115,7 @@ impl WindEstimator {
     /// The wind estimate Ŵ [m/s] and its 1σ.
     pub fn wind(&self) -> (f64, f64) {
         match &self.state {
-            Some((x, p)) => (x[1], p[1][1].max(0.0).sqrt()),
+            Some((x, p)) => (x[1], p[(1, 1)].max(0.0).sqrt()),
             None => (self.prior_wind_mps, WIND_PRIOR_SIGMA_MPS),
         }
     }
@@ -121,24 +124,17 @@ impl WindEstimator {
     /// the next measurement.
     pub fn update(&mut self, m: &PlantState, applied: &Command, model: &Model) {
         let r = VELOCITY_NOISE_MPS * VELOCITY_NOISE_MPS;
-        let (mut x, mut p) = match (self.state, &self.last) {
+        let (x, p) = match (self.state, &self.last) {
             (Some((x, p)), Some((prev, cmd))) => predict(x, p, prev, cmd, model, self.dt_s),
             _ => (
-                [m.vx_mps, self.prior_wind_mps],
-                [[r, 0.0], [0.0, WIND_PRIOR_SIGMA_MPS * WIND_PRIOR_SIGMA_MPS]],
+                Vector2::new(m.vx_mps, self.prior_wind_mps),
+                Matrix2::new(r, 0.0, 0.0, WIND_PRIOR_SIGMA_MPS * WIND_PRIOR_SIGMA_MPS),
             ),
         };
         // Measurement update, H = [1 0].
-        let s = p[0][0] + r;
-        let k = [p[0][0] / s, p[1][0] / s];
-        let innovation = m.vx_mps - x[0];
-        x[0] += k[0] * innovation;
-        x[1] += k[1] * innovation;
-        let p0 = p[0];
-        for (i, row) in p.iter_mut().enumerate() {
-            row[0] -= k[i] * p0[0];
-            row[1] -= k[i] * p0[1];
-        }
+        let gain = p.column(0) / (p[(0, 0)] + r);
+        let x = x + gain * (m.vx_mps - x[0]);
+        let p = p - gain * p.row(0);
         if x.iter().all(|v| v.is_finite()) {
             self.state = Some((x, p));
         }
@@ -147,43 +143,43 @@ impl WindEstimator {
 }
 
 /// Time update of [`WindEstimator`] over one step (Euler; the step is 10 ms
-/// against time constants of seconds).
+/// against time constants of seconds). V̇x is Eq. (2)'s, from
+/// [`dynamics::rhs_physical`] in the wind Ŵ, differentiated in Vx by
+/// num-dual; the drag depends on Vx − W only, so ∂V̇x/∂W = −∂V̇x/∂Vx.
 fn predict(
-    x: [f64; 2],
-    p: [[f64; 2]; 2],
+    x: Vector2<f64>,
+    p: Matrix2<f64>,
     m: &PlantState,
     cmd: &Command,
     model: &Model,
     dt: f64,
-) -> ([f64; 2], [[f64; 2]; 2]) {
-    let [vx, w] = x;
+) -> (Vector2<f64>, Matrix2<f64>) {
+    let windy = Model {
+        wind_x_mps: x[1],
+        ..model.clone()
+    };
     let thrust = cmd.thrust_n.clamp(model.min_thrust_n, model.max_thrust_n);
-    let (va_x, va_z) = (vx - w, m.vz_mps);
-    let speed = (va_x * va_x + va_z * va_z).sqrt().max(1e-6);
-    let mass = m.mass_kg.max(1.0);
-    let ax = (-thrust * (m.theta_rad + m.gimbal_rad).sin() - model.c_ld_kgpm * speed * va_x) / mass;
-    // ∂V̇x/∂Vx = −k, ∂V̇x/∂W = k.
-    let k = model.c_ld_kgpm * (speed + va_x * va_x / speed) / mass;
-    let f = [[1.0 - k * dt, k * dt], [0.0, 1.0]];
-    let q = [
+    let c = Dual64::from_re;
+    let state = [
+        c(m.x_m),
+        c(m.z_m),
+        Dual64::new(x[0], 1.0),
+        c(m.vz_mps),
+        c(m.theta_rad),
+        c(m.pitch_rate_radps),
+        c(m.mass_kg.max(1.0)),
+    ];
+    let ax = dynamics::rhs_physical(&windy, &state, c(thrust), c(m.gimbal_rad))[2];
+    let k = -ax.eps;
+    let f = Matrix2::new(1.0 - k * dt, k * dt, 0.0, 1.0);
+    let q = Matrix2::from_diagonal(&Vector2::new(
         UNMODELLED_ACCEL_MPS2 * UNMODELLED_ACCEL_MPS2 * dt,
         WIND_WALK_MPS_PER_SQRT_S * WIND_WALK_MPS_PER_SQRT_S * dt,
-    ];
-    // P ← F P Fᵀ + Q.
-    let mut fp = [[0.0; 2]; 2];
-    for i in 0..2 {
-        for j in 0..2 {
-            fp[i][j] = f[i][0] * p[0][j] + f[i][1] * p[1][j];
-        }
-    }
-    let mut pn = [[0.0; 2]; 2];
-    for i in 0..2 {
-        for j in 0..2 {
-            pn[i][j] = fp[i][0] * f[j][0] + fp[i][1] * f[j][1];
-        }
-        pn[i][i] += q[i];
-    }
-    ([vx + ax * dt, w], pn)
+    ));
+    (
+        Vector2::new(x[0] + ax.re * dt, x[1]),
+        f * p * f.transpose() + q,
+    )
 }
 
 #[cfg(test)]
