@@ -206,7 +206,7 @@ pub const DOCS: &[Doc] = &[
     doc!("solver", "proximal_weight", "", closed(0.0, 1e6),
         "Weight of the proximal term w*|dz|^2 of each subproblem; 0 is off."),
     doc!("solver", "trust_region_initial", "scaled", TRUST_RADIUS,
-        "Initial trust-region radius (infinity norm). Within [trust_region_min, trust_region_max]."),
+        "Initial trust-region radius (infinity norm). Within [trust_region_min, trust_region_max]. The relaxed first phase of \"exact\" starts at 0.6."),
     doc!("solver", "trust_region_min", "scaled", TRUST_RADIUS,
         "Smallest trust-region radius before the iteration stops."),
     doc!("solver", "trust_region_max", "scaled", TRUST_RADIUS, "Largest trust-region radius."),

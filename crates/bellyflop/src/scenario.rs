@@ -137,7 +137,8 @@ pub struct SolverSettings {
     pub virtual_control_weight: f64,
     /// Weight w of the proximal term w·‖Δẑ‖² that regularizes each subproblem.
     pub proximal_weight: f64,
-    /// Initial trust-region radius (scaled ∞-norm).
+    /// Initial trust-region radius (scaled ∞-norm). The relaxed first phase
+    /// of the `exact` formulation has its own (0.6, see `scvx`).
     pub trust_region_initial: f64,
     /// Smallest trust-region radius before the iteration stops.
     pub trust_region_min: f64,
