@@ -84,14 +84,15 @@ fn cold_solve_hp(c: &mut Criterion) {
 }
 
 /// Warm re-plan 0.5 s along the cold plan, from the plan's own state there,
-/// with the planner's conic solvers already set up (as in a guidance loop).
+/// with the planner's conic solvers already set up (as in a guidance loop)
+/// and its defaults (exact form directly, warm proximal weight).
 fn warm_replan(c: &mut Criterion) {
     let mut g = c.benchmark_group("warm_replan");
     g.sampling_mode(SamplingMode::Flat);
     g.sample_size(10);
     g.warm_up_time(Duration::from_secs(1));
     g.measurement_time(Duration::from_secs(5));
-    for n in [20, 40] {
+    for n in [10, 20, 40] {
         let mut planner = Planner::new(paper(n));
         planner.cold(&mut Silent);
         let plan = planner.plan.clone().expect("cold solve solved");

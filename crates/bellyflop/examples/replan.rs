@@ -5,10 +5,10 @@
 //!
 //! Prints, per N, the iterations and wall time of the cold solve and of the
 //! warm re-plan, the re-plan's final mass against the cold plan's, and whether
-//! both are `solved`. `--relaxed K` and `--proximal W` set the re-plan's
-//! `solver.relaxed_first_iterations` and `solver.proximal_weight` (the cold
-//! solve keeps the scenario's). Timing lives in the criterion bench
-//! (`warm_replan`); these are single runs.
+//! both are `solved`. `--relaxed K` and `--proximal W` set the planner's
+//! `warm_relaxed_iterations` (default 0) and `warm_proximal_weight` (default
+//! 0.01). Timing lives in the criterion bench (`warm_replan`); these are
+//! single runs.
 
 use bellyflop::replan::{initial_state, Planner};
 use bellyflop::scvx::Silent;
@@ -36,10 +36,10 @@ fn main() {
         let cold = planner.cold(&mut Silent);
         let plan = planner.plan.clone().expect("cold solve solved");
         if let Some(k) = relaxed {
-            planner.scenario.solver.relaxed_first_iterations = k as usize;
+            planner.warm_relaxed_iterations = k as usize;
         }
         if let Some(w) = proximal {
-            planner.scenario.solver.proximal_weight = w;
+            planner.warm_proximal_weight = w;
         }
         let state = initial_state(&plan.state_at(0.5));
         let warm = planner

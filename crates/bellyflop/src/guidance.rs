@@ -107,6 +107,11 @@ pub struct GuidanceConfig {
     /// its step tolerance (the trust region oscillates on the singular
     /// arcs), so most re-plans are flown `usable`. Range 0 to 1000.
     pub replan_relaxed_iterations: usize,
+    /// Proximal weight of the re-plans' subproblems
+    /// ([`crate::replan::Planner::warm_proximal_weight`]). Default 0 (see
+    /// docs/guidance.md for the campaigns with the planner's 0.01).
+    /// Range [0, 1e6].
+    pub replan_proximal_weight: f64,
     /// Wall-clock deadline of one re-plan [s], reported only (re-plans past
     /// it count as `late`); 0 means the re-plan period. Default 0.
     pub deadline_s: f64,
@@ -220,6 +225,7 @@ impl Default for GuidanceConfig {
             replan_rate_hz: 2.0,
             replan_max_iterations: 12,
             replan_relaxed_iterations: 0,
+            replan_proximal_weight: 0.0,
             deadline_s: 0.0,
             stop_time_to_go_s: 1.0,
             stop_altitude_m: 2.0,
@@ -268,6 +274,13 @@ impl GuidanceConfig {
             "guidance.replan_relaxed_iterations",
             self.replan_relaxed_iterations,
             (0, 1000),
+        )?;
+        check(
+            "replan_proximal_weight",
+            self.replan_proximal_weight,
+            0.0,
+            1e6,
+            false,
         )?;
         check(
             "stop_time_to_go_s",
@@ -507,7 +520,8 @@ pub fn fly(
     };
     // Re-plans run on the iteration budget (the cold first plan does not).
     planner.scenario.solver.max_iterations = guidance.replan_max_iterations;
-    planner.scenario.solver.relaxed_first_iterations = guidance.replan_relaxed_iterations;
+    planner.warm_relaxed_iterations = guidance.replan_relaxed_iterations;
+    planner.warm_proximal_weight = guidance.replan_proximal_weight;
     planner.scenario.solver.terminal_lateral_weight = guidance.terminal_lateral_weight;
     if guidance.replan_nodes > 0 {
         let d = &mut planner.scenario.discretization;

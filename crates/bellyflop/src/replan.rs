@@ -7,9 +7,12 @@
 //! old plan's state and control interpolants there (the piecewise polynomials
 //! of [`Mesh`]), with the first node replaced by the measured state. By
 //! Bellman's principle the old plan's tail is optimal from its own state, so
-//! from a state near the plan the reference is nearly optimal and SCvx needs
-//! one or two iterations; the exact formulation is used directly (the relaxed
-//! first phase of a cold solve exists only to find that basin).
+//! from a state near the plan the reference is nearly optimal. A re-plan
+//! therefore solves the exact formulation directly (the relaxed first phase
+//! of a cold solve exists only to find that basin from a straight line), with
+//! a proximal term: without it the linear-cost subproblem jumps between
+//! vertices on the singular arcs and the trust region binds for 15–20
+//! iterations ([`WARM_PROXIMAL_WEIGHT`]).
 
 use crate::conic::ConicSolver;
 use crate::dynamics::{self, ix, NU_MAX, NX};
@@ -25,6 +28,13 @@ use crate::transcription::{Trajectory, Transcription};
 /// cold solve's 0.3 also did best from the shifted plan (examples/replan:
 /// 0.03 and 0.1 took more iterations, 1 and 3 no fewer).
 pub const WARM_TRUST_REGION: f64 = 0.3;
+
+/// Proximal weight of a warm re-plan's subproblems
+/// ([`crate::scenario::SolverSettings::proximal_weight`]). Measured with
+/// examples/replan (nominal state 0.5 s along the plan, exact form directly):
+/// at N = 10, 20 and 40 it takes 4, 2 and 3 iterations with 0.01, against
+/// 16, 15 and 19 with 0, 15, 13 and 20 with 0.003, and 3, 4 and 6 with 0.03.
+pub const WARM_PROXIMAL_WEIGHT: f64 = 0.01;
 
 /// The previous plan as a function of time: its trajectory, mesh and formulation.
 #[derive(Debug, Clone)]
@@ -162,6 +172,14 @@ pub struct Planner {
     /// The scenario of the cold solve; re-plans replace its initial state.
     pub scenario: Scenario,
     pub plan: Option<Plan>,
+    /// Iterations of a re-plan's relaxed first phase (the paper's formulation,
+    /// kept only if it passes every physical check); 0, the default, solves
+    /// the exact formulation directly. The cold solve keeps the scenario's
+    /// `solver.relaxed_first_iterations`.
+    pub warm_relaxed_iterations: usize,
+    /// Proximal weight of a re-plan's subproblems, in place of the scenario's
+    /// `solver.proximal_weight` (default [`WARM_PROXIMAL_WEIGHT`]).
+    pub warm_proximal_weight: f64,
     /// One conic solver per subproblem structure (relaxed, exact).
     conic_relaxed: ConicSolver,
     conic: ConicSolver,
@@ -173,6 +191,8 @@ impl Planner {
         Planner {
             scenario,
             plan: None,
+            warm_relaxed_iterations: 0,
+            warm_proximal_weight: WARM_PROXIMAL_WEIGHT,
             conic_relaxed: ConicSolver::new(),
             conic: ConicSolver::new(),
         }
@@ -213,44 +233,47 @@ impl Planner {
             }
             return Ok(sol);
         };
-        // As in a cold solve: the paper's relaxation first (it converges in
-        // 2–5 iterations from the shifted plan, where the exact form needs
-        // 12–19, measured with examples/replan), kept only if it passes every
-        // physical check; otherwise the exact form from the same reference.
+        // Optionally the paper's relaxation first, kept only if it passes every
+        // physical check; then the exact form from the same reference.
         // `s.solver.max_iterations` bounds both phases together.
-        let mut sol = None;
-        let mut spent = 0;
-        if s.solver.formulation == Formulation::Exact && s.solver.relaxed_first_iterations > 0 {
+        s.solver.proximal_weight = self.warm_proximal_weight;
+        let mut first = None;
+        if s.solver.formulation == Formulation::Exact && self.warm_relaxed_iterations > 0 {
             let mut relaxed = s.clone();
             relaxed.solver.formulation = Formulation::Paper;
-            relaxed.solver.max_iterations = s
-                .solver
-                .relaxed_first_iterations
-                .min(s.solver.max_iterations);
+            relaxed.solver.max_iterations =
+                self.warm_relaxed_iterations.min(s.solver.max_iterations);
             let tr = Transcription::new(&relaxed).without_ground_bound();
             let guess = shifted_reference(plan, elapsed_s, &tr);
             let mut settings = relaxed.solver.clone();
             settings.trust_region_initial = WARM_TRUST_REGION;
-            let first =
-                scvx::solve_from_with(&tr, guess, &settings, observer, &mut self.conic_relaxed);
-            spent = first.iterations;
-            if first.status == crate::Status::Solved || spent >= s.solver.max_iterations {
-                sol = Some(first);
-            }
+            first = Some(scvx::solve_from_with(
+                &tr,
+                guess,
+                &settings,
+                observer,
+                &mut self.conic_relaxed,
+            ));
         }
-        let sol = match sol {
-            Some(sol) => sol,
-            None => {
+        let sol = match first {
+            Some(first)
+                if first.status == crate::Status::Solved
+                    || first.iterations >= s.solver.max_iterations =>
+            {
+                first
+            }
+            first => {
                 let tr = Transcription::new(&s);
                 let guess = shifted_reference(plan, elapsed_s, &tr);
                 let mut settings = s.solver.clone();
                 settings.trust_region_initial = WARM_TRUST_REGION;
+                let spent = first.as_ref().map_or(0, |f| f.iterations);
                 settings.max_iterations -= spent;
-                let mut sol =
-                    scvx::solve_from_with(&tr, guess, &settings, observer, &mut self.conic);
-                // Count the relaxed phase's iterations too.
-                sol.iterations += spent;
-                sol
+                let sol = scvx::solve_from_with(&tr, guess, &settings, observer, &mut self.conic);
+                match first {
+                    Some(first) => scvx::append_phase(first, sol),
+                    None => sol,
+                }
             }
         };
         if sol.status == crate::Status::Solved {

@@ -208,18 +208,25 @@ pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
     if let Some(first) = &spent {
         settings.max_iterations -= first.iterations;
     }
-    let mut sol = solve_from(&tr, guess, &settings, observer);
-    if let Some(first) = spent {
-        let mut history = first.history;
-        let offset = history.len();
-        history.extend(sol.history.drain(..).map(|mut h| {
-            h.iteration += offset;
-            h
-        }));
-        sol.history = history;
-        sol.iterations = sol.history.len();
-        sol.solve_time_ms += first.solve_time_ms;
+    let sol = solve_from(&tr, guess, &settings, observer);
+    match spent {
+        Some(first) => append_phase(first, sol),
+        None => sol,
     }
+}
+
+/// The answer of a second phase `sol` with the first phase's iterations and
+/// time counted in: its history is `first`'s followed by its own.
+pub fn append_phase(first: Solution, mut sol: Solution) -> Solution {
+    let mut history = first.history;
+    let offset = history.len();
+    history.extend(sol.history.drain(..).map(|mut h| {
+        h.iteration += offset;
+        h
+    }));
+    sol.history = history;
+    sol.iterations = sol.history.len();
+    sol.solve_time_ms += first.solve_time_ms;
     sol
 }
 

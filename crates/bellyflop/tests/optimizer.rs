@@ -325,3 +325,70 @@ fn soft_terminal_lateral_returns_a_small_miss() {
         "miss {miss_m} m, {speed_mps} m/s"
     );
 }
+
+/// Issue 5's warm re-plan: from the plan's own state 0.5 s along it, the
+/// shifted plan is nearly optimal, so the planner's default (exact form with
+/// the warm proximal term) converges in a few iterations to the optimum of
+/// the remaining problem. Without the proximal term it needs 15–20 (see
+/// `Planner::warm_proximal_weight`), so this guards that setting.
+#[test]
+fn warm_replan_converges_in_a_few_iterations() {
+    use bellyflop::replan::{initial_state, Planner};
+    for n in [10, 20] {
+        let mut s = Scenario::paper();
+        s.discretization.nodes = n;
+        let mut planner = Planner::new(s.clone());
+        let cold = planner.cold(&mut Silent);
+        assert_eq!(cold.status, Status::Solved);
+        let plan = planner.plan.clone().expect("a solved cold plan");
+        let state = initial_state(&plan.state_at(0.5));
+        let warm = planner
+            .replan(&state, 0.5, &mut Silent)
+            .expect("valid state");
+        let what = format!("warm re-plan N = {n}");
+        assert_eq!(warm.status, Status::Solved, "{what}: {}", warm.message);
+        assert_physical(&warm, &what);
+        assert!(
+            warm.iterations <= 5,
+            "{what}: {} iterations",
+            warm.iterations
+        );
+        // The same optimum as a cold solve of the re-plan's own problem.
+        let mut s2 = s.clone();
+        s2.initial = state;
+        s2.discretization.tf_guess_s = plan.tf_s() - 0.5;
+        let direct = solve(&s2, &mut Silent);
+        assert_eq!(direct.status, Status::Solved, "{what}: direct");
+        assert!(
+            (warm.final_mass_kg - direct.final_mass_kg).abs() < 0.5,
+            "{what}: {} kg against a cold solve's {} kg",
+            warm.final_mass_kg,
+            direct.final_mass_kg
+        );
+    }
+}
+
+/// A re-plan whose relaxed first phase fails counts that phase's iterations
+/// and time in its answer.
+#[test]
+fn warm_replan_counts_both_phases() {
+    use bellyflop::replan::{initial_state, Planner};
+    let mut s = Scenario::paper();
+    s.discretization.nodes = 10;
+    let mut planner = Planner::new(s);
+    planner.cold(&mut Silent);
+    let plan = planner.plan.clone().expect("a solved cold plan");
+    // One relaxed iteration cannot converge from the shifted plan.
+    planner.warm_relaxed_iterations = 1;
+    let state = initial_state(&plan.state_at(0.5));
+    let warm = planner
+        .replan(&state, 0.5, &mut Silent)
+        .expect("valid state");
+    assert_eq!(warm.status, Status::Solved, "{}", warm.message);
+    assert_eq!(warm.iterations, warm.history.len());
+    assert!(warm.iterations >= 2);
+    let numbered: Vec<usize> = warm.history.iter().map(|h| h.iteration).collect();
+    assert_eq!(numbered, (1..=warm.iterations).collect::<Vec<_>>());
+    let ms: f64 = warm.history.iter().map(|h| h.ms).sum();
+    assert!(warm.solve_time_ms >= ms, "{} < {ms}", warm.solve_time_ms);
+}
