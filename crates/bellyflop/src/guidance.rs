@@ -97,8 +97,9 @@ pub struct GuidanceConfig {
     /// 20. Range 1 to 1000.
     pub replan_max_iterations: usize,
     /// Iterations of the re-plans' relaxed first phase (the paper's
-    /// formulation, [`crate::scenario::SolverSettings::relaxed_first_iterations`]),
-    /// within the budget; the cold first plan keeps the scenario's.
+    /// formulation, [`crate::replan::Planner::warm_relaxed_iterations`]),
+    /// within the budget; the cold first plan keeps the scenario's
+    /// `solver.relaxed_first_iterations`.
     /// Default 0: from a warm start the relaxed phase often spent its 10
     /// iterations without converging and left the exact phase 2 (of the 42
     /// runs outside spec in the first 1000-run campaign with the gate, 18
