@@ -58,7 +58,8 @@ fn cold_solve(c: &mut Criterion) {
 }
 
 /// Cold solve on an hp mesh (N points over M intervals): each subproblem is
-/// cheaper, but SCvx needs more iterations there (see BENCHMARKS.md).
+/// cheaper; from some t_f guesses SCvx needs many more iterations there
+/// (`bench/hp_sweep.sh`, BENCHMARKS.md).
 fn cold_solve_hp(c: &mut Criterion) {
     let mut g = c.benchmark_group("cold_solve_hp");
     g.sampling_mode(SamplingMode::Flat);
