@@ -202,6 +202,11 @@ impl Planner {
     /// becomes the plan.
     pub fn cold(&mut self, observer: &mut dyn Observer) -> Solution {
         let sol = scvx::solve(&self.scenario, observer);
+        self.adopt(sol)
+    }
+
+    /// Make `sol` the plan if it is solved; the old plan stays otherwise.
+    fn adopt(&mut self, sol: Solution) -> Solution {
         if sol.status == crate::Status::Solved {
             self.plan = Some(Plan::from_solution(&sol));
         }
@@ -228,10 +233,7 @@ impl Planner {
         s.validate()?;
         let Some(plan) = &self.plan else {
             let sol = scvx::solve(&s, observer);
-            if sol.status == crate::Status::Solved {
-                self.plan = Some(Plan::from_solution(&sol));
-            }
-            return Ok(sol);
+            return Ok(self.adopt(sol));
         };
         // Optionally the paper's relaxation first, kept only if it passes every
         // physical check; then the exact form from the same reference.
@@ -276,10 +278,7 @@ impl Planner {
                 }
             }
         };
-        if sol.status == crate::Status::Solved {
-            self.plan = Some(Plan::from_solution(&sol));
-        }
-        Ok(sol)
+        Ok(self.adopt(sol))
     }
 }
 

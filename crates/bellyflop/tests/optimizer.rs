@@ -326,6 +326,24 @@ fn soft_terminal_lateral_returns_a_small_miss() {
     );
 }
 
+/// A planner with a solved cold plan of the paper's case on `n` points, and
+/// the plan's own state 0.5 s along it.
+fn planned(
+    n: usize,
+) -> (
+    bellyflop::replan::Planner,
+    bellyflop::scenario::InitialState,
+) {
+    let mut s = Scenario::paper();
+    s.discretization.nodes = n;
+    let mut planner = bellyflop::replan::Planner::new(s);
+    let cold = planner.cold(&mut Silent);
+    assert_eq!(cold.status, Status::Solved, "cold N = {n}");
+    let plan = planner.plan.as_ref().expect("a solved cold plan");
+    let state = bellyflop::replan::initial_state(&plan.state_at(0.5));
+    (planner, state)
+}
+
 /// Issue 5's warm re-plan: from the plan's own state 0.5 s along it, the
 /// shifted plan is nearly optimal, so the planner's default (exact form with
 /// the warm proximal term) converges in a few iterations to the optimum of
@@ -333,15 +351,9 @@ fn soft_terminal_lateral_returns_a_small_miss() {
 /// `Planner::warm_proximal_weight`), so this guards that setting.
 #[test]
 fn warm_replan_converges_in_a_few_iterations() {
-    use bellyflop::replan::{initial_state, Planner};
     for n in [10, 20] {
-        let mut s = Scenario::paper();
-        s.discretization.nodes = n;
-        let mut planner = Planner::new(s.clone());
-        let cold = planner.cold(&mut Silent);
-        assert_eq!(cold.status, Status::Solved);
-        let plan = planner.plan.clone().expect("a solved cold plan");
-        let state = initial_state(&plan.state_at(0.5));
+        let (mut planner, state) = planned(n);
+        let tf_s = planner.plan.as_ref().expect("a plan").tf_s();
         let warm = planner
             .replan(&state, 0.5, &mut Silent)
             .expect("valid state");
@@ -354,9 +366,9 @@ fn warm_replan_converges_in_a_few_iterations() {
             warm.iterations
         );
         // The same optimum as a cold solve of the re-plan's own problem.
-        let mut s2 = s.clone();
+        let mut s2 = planner.scenario.clone();
         s2.initial = state;
-        s2.discretization.tf_guess_s = plan.tf_s() - 0.5;
+        s2.discretization.tf_guess_s = tf_s - 0.5;
         let direct = solve(&s2, &mut Silent);
         assert_eq!(direct.status, Status::Solved, "{what}: direct");
         assert!(
@@ -372,15 +384,9 @@ fn warm_replan_converges_in_a_few_iterations() {
 /// and time in its answer.
 #[test]
 fn warm_replan_counts_both_phases() {
-    use bellyflop::replan::{initial_state, Planner};
-    let mut s = Scenario::paper();
-    s.discretization.nodes = 10;
-    let mut planner = Planner::new(s);
-    planner.cold(&mut Silent);
-    let plan = planner.plan.clone().expect("a solved cold plan");
+    let (mut planner, state) = planned(10);
     // One relaxed iteration cannot converge from the shifted plan.
     planner.warm_relaxed_iterations = 1;
-    let state = initial_state(&plan.state_at(0.5));
     let warm = planner
         .replan(&state, 0.5, &mut Silent)
         .expect("valid state");
