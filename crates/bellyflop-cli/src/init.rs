@@ -66,6 +66,8 @@ pub enum Allowed {
     Choice(&'static [&'static str]),
     /// Any text.
     Text,
+    /// `true` or `false`.
+    Flag,
 }
 
 /// The documentation of one scenario field.
@@ -216,6 +218,8 @@ pub const DOCS: &[Doc] = &[
     doc!("solver", "rho2", "", RHO, "Acceptance ratio at or above which the radius grows."),
     doc!("solver", "shrink", "", FACTOR, "Radius shrink factor (when rho < rho1)."),
     doc!("solver", "grow", "", FACTOR, "Radius growth factor (when rho >= rho2)."),
+    doc!("solver", "second_order_correction", "", Allowed::Flag,
+        "Judge a poor candidate (rho < rho1) after a minimum-norm correction of its linearization error (Nocedal & Wright 15.6); without it the penalty merit rejects good steps for their second-order defects and SCvx stops short of the optimum."),
     doc!("solver", "relaxation_gap_tolerance", "", TOLERANCE,
         "Largest accepted relaxation gap max(1 - |T|/sigma) of a returned solution."),
     doc!("solver", "thrust_margin_frac", "", closed_open(0.0, 0.5),
@@ -274,6 +278,7 @@ pub fn allowed_text(d: &Doc) -> String {
             .collect::<Vec<_>>()
             .join(", "),
         Allowed::Text => "any text".into(),
+        Allowed::Flag => "true or false".into(),
     }
 }
 
@@ -487,6 +492,11 @@ mod tests {
                     for c in choices {
                         assert!(with_field(d.table, d.key, (*c).into()).is_ok(), "{c}");
                     }
+                    assert!(with_field(d.table, d.key, "nonsense".into()).is_err());
+                }
+                Allowed::Flag => {
+                    check(true.into(), true);
+                    check(false.into(), true);
                     assert!(with_field(d.table, d.key, "nonsense".into()).is_err());
                 }
                 Allowed::Text => {}

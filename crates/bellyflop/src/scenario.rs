@@ -151,6 +151,13 @@ pub struct SolverSettings {
     /// Radius shrink factor (>1) when ρ < ρ1, and growth factor (>1) when ρ ≥ ρ2.
     pub shrink: f64,
     pub grow: f64,
+    /// Second-order correction of poor candidates (ρ < ρ1): remove the
+    /// candidate's linearization error by a minimum-norm step on the
+    /// linearized equalities before judging it (Nocedal & Wright §15.6).
+    /// Without it the exact-penalty merit rejects steps for their O(Δ²)
+    /// defects (the Maratos effect) and the trust region shrinks onto a
+    /// point short of the optimum.
+    pub second_order_correction: bool,
     /// Accepted relaxation gap max(1 − ‖T‖/σ) of a returned solution.
     pub relaxation_gap_tolerance: f64,
     /// Soft thrust margin μ (0 = off): a throttle outside
@@ -185,10 +192,11 @@ impl Default for SolverSettings {
             trust_region_min: 1e-6,
             trust_region_max: 10.0,
             rho0: 0.0,
-            rho1: 0.1,
-            rho2: 0.9,
+            rho1: 0.25,
+            rho2: 0.7,
             shrink: 3.0,
             grow: 2.0,
+            second_order_correction: true,
             relaxation_gap_tolerance: 1e-6,
             thrust_margin_frac: 0.0,
             thrust_margin_weight: 100.0,

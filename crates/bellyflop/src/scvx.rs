@@ -81,6 +81,12 @@ pub fn straight_line(tr: &Transcription, tf_s: f64, final_mass_kg: f64) -> Traje
 /// tolerance, the answer is only "not converged".
 pub const INFEASIBLE_VIRTUAL_CONTROL: f64 = 1e-4;
 
+/// Consecutive creeping steps (see `solve_from_with`) after which the trust
+/// region shrinks.
+const CREEP_WINDOW: usize = 5;
+/// A step at least this fraction of the radius reaches the trust region.
+const CREEP_BOUND: f64 = 0.99;
+
 /// Iterations over which [`stalled`] judges progress.
 const STALL_WINDOW: usize = 8;
 /// Relative merit decrease over the window below which the search has stalled.
@@ -188,6 +194,7 @@ pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
         relaxed.solver.max_iterations = budget.min(scenario.solver.max_iterations);
         // Measured with examples/convergence: the relaxed phase does best with
         // a trust region that grows readily, the exact phase with a cautious one.
+        relaxed.solver.rho1 = RELAXED_RHO1;
         relaxed.solver.rho2 = RELAXED_RHO2;
         relaxed.solver.grow = RELAXED_GROW;
         relaxed.solver.shrink = RELAXED_SHRINK;
@@ -237,6 +244,8 @@ pub fn append_phase(first: Solution, mut sol: Solution) -> Solution {
 /// phase keeps `solver.trust_region_initial`: there a larger radius changes
 /// which local optimum the dispersed cases reach.
 const RELAXED_TRUST_REGION_INITIAL: f64 = 0.6;
+/// Trust-region shrink threshold ρ1 of the relaxed first phase.
+const RELAXED_RHO1: f64 = 0.1;
 /// Trust-region growth threshold ρ2 of the relaxed first phase.
 const RELAXED_RHO2: f64 = 0.5;
 /// Trust-region growth factor of the relaxed first phase.
@@ -272,6 +281,7 @@ pub fn solve_from_with(
     let mut history = Vec::new();
     let mut last_vc = f64::INFINITY;
     let mut failures = 0;
+    let mut creep = 0usize;
     let mut outcome: Option<(Status, String)> = None;
 
     for iteration in 1..=settings.max_iterations {
@@ -290,15 +300,35 @@ pub fn solve_from_with(
                 continue;
             }
         };
-        let merit = tr.merit(&sub.trajectory);
-        let step = inf_norm_diff(&sub.z, &z_ref);
+        let mut sub = sub;
+        let mut merit = tr.merit(&sub.trajectory);
+        let mut step = inf_norm_diff(&sub.z, &z_ref);
         let predicted = j_ref - sub.model_cost;
-        let actual = j_ref - merit.total;
-        let rho = if predicted.abs() > 1e-12 {
-            actual / predicted
-        } else {
-            1.0
+        let ratio = |j: f64| {
+            if predicted.abs() > 1e-12 {
+                (j_ref - j) / predicted
+            } else {
+                1.0
+            }
         };
+        let mut rho = ratio(merit.total);
+        // A poor candidate is judged after its second-order correction, when
+        // that agrees better with the model (same predicted decrease).
+        let mut corrected = false;
+        if settings.second_order_correction && rho < settings.rho1 && step > settings.step_tolerance
+        {
+            if let Some(t) = tr.second_order_correction(&data, &sub) {
+                let m = tr.merit(&t);
+                if ratio(m.total) > rho {
+                    sub.z = tr.to_scaled(&t);
+                    sub.trajectory = t;
+                    step = inf_norm_diff(&sub.z, &z_ref);
+                    merit = m;
+                    rho = ratio(m.total);
+                    corrected = true;
+                }
+            }
+        }
         // Converged: the step (or the predicted decrease) is negligible, and the
         // candidate meets the nonlinear collocation defects — unless it still
         // needs so much virtual control that no step can fix it.
@@ -318,6 +348,7 @@ pub fn solve_from_with(
             trust_radius: radius,
             rho,
             accepted,
+            corrected,
             ipm_iterations: sub.ipm_iterations,
             ms: t0.elapsed().as_secs_f64() * 1e3,
         };
@@ -359,8 +390,19 @@ pub fn solve_from_with(
             ));
             break;
         }
-        if !accepted || rho < settings.rho1 {
+        // Creep: on a feasible reference, accepted steps that all reach the
+        // trust region while the model over-predicts (ρ < ρ2). The ∞-norm
+        // linear model moves every free variable to the box, so its steps
+        // never shrink on their own near the optimum; CREEP_WINDOW such
+        // steps in a row are treated like ρ < ρ1.
+        let creeping = accepted
+            && rho < settings.rho2
+            && step >= CREEP_BOUND * radius
+            && last_vc <= settings.virtual_control_tolerance;
+        creep = if creeping { creep + 1 } else { 0 };
+        if !accepted || rho < settings.rho1 || creep >= CREEP_WINDOW {
             radius /= settings.shrink;
+            creep = 0;
         } else if rho >= settings.rho2 {
             radius = (radius * settings.grow).min(settings.trust_region_max);
         }

@@ -66,6 +66,9 @@ pub struct IterationRecord {
     /// Acceptance ratio ρ = actual / predicted decrease of J.
     pub rho: f64,
     pub accepted: bool,
+    /// Whether the candidate is the second-order correction of the
+    /// subproblem's answer (`solver.second_order_correction`).
+    pub corrected: bool,
     pub ipm_iterations: u32,
     pub ms: f64,
 }

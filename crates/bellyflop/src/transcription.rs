@@ -171,6 +171,12 @@ impl Scaling {
     }
 }
 
+/// Regularization ε of the second-order correction's system [I Aᵀ; A −εI]:
+/// small against the unit primal block, so the step is the minimum-norm one
+/// to ~1e-10, yet it keeps the factorization quasi-definite when A_eq is
+/// rank-deficient.
+const CORRECTION_REGULARIZATION: f64 = 1e-10;
+
 /// Time scale of t_f = this × altitude drop / initial speed (see [`Scaling::new`]).
 const TIME_SCALE_FACTOR: f64 = 1.7;
 
@@ -230,6 +236,8 @@ pub struct SubproblemResult {
     pub virtual_control: f64,
     pub ipm_iterations: u32,
     pub status: SolverStatus,
+    /// Virtual control ν⁺ − ν⁻ of every collocation defect (node-major, N·NX).
+    pub defect_virtual_control: Vec<f64>,
 }
 
 /// Value of the penalized nonlinear cost J(z) (SCvx merit function).
@@ -822,6 +830,83 @@ impl Transcription {
         }
     }
 
+    /// Second-order correction of a subproblem's answer `sub` (Nocedal &
+    /// Wright §15.6, in its minimum-norm form): the smallest scaled change Δẑ
+    /// of the trajectory variables with A_eq·Δẑ = −(c(ẑ⁺) − c_lin(ẑ⁺)) on the
+    /// linearized equalities of `data` (collocation defects, boundary
+    /// conditions), then clipped to the variable bounds. The candidate ẑ⁺ + Δẑ
+    /// meets the nonlinear defects to O(‖Δẑ‖·‖ẑ⁺ − ẑ_ref‖) where ẑ⁺ met them to
+    /// O(‖ẑ⁺ − ẑ_ref‖²), and keeps ẑ⁺'s virtual control (c_lin(ẑ⁺) = −ν).
+    ///
+    /// One sparse quasi-definite LDLᵀ solve of [I Aᵀ; A −εI] (Clarabel's
+    /// QDLDL) instead of a second conic solve: measured on 40 dispersed
+    /// states, a conic correction doubles the cost of a corrected iteration
+    /// for no better answers. `None` if the system cannot be factored.
+    pub fn second_order_correction(
+        &self,
+        data: &ConicData,
+        sub: &SubproblemResult,
+    ) -> Option<Trajectory> {
+        use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
+        let l = self.layout;
+        let np = l.n_primal();
+        let m_eq = match data.cones.first() {
+            Some(SupportedConeT::ZeroConeT(m)) => *m,
+            _ => return None,
+        };
+        // Column np + r of the upper triangle of K holds row r of A_eq over
+        // the trajectory variables, then the −ε diagonal.
+        let mut rows: Vec<Vec<(usize, f64)>> = vec![vec![]; m_eq];
+        for j in 0..np {
+            for k in data.a.colptr[j]..data.a.colptr[j + 1] {
+                if data.a.rowval[k] < m_eq {
+                    rows[data.a.rowval[k]].push((j, data.a.nzval[k]));
+                }
+            }
+        }
+        let dim = np + m_eq;
+        let mut colptr = Vec::with_capacity(dim + 1);
+        let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
+        colptr.push(0);
+        for j in 0..np {
+            rowval.push(j);
+            nzval.push(1.0);
+            colptr.push(rowval.len());
+        }
+        for (r, entries) in rows.iter().enumerate() {
+            for &(j, v) in entries {
+                rowval.push(j);
+                nzval.push(v);
+            }
+            rowval.push(np + r);
+            nzval.push(-CORRECTION_REGULARIZATION);
+            colptr.push(rowval.len());
+        }
+        let k = CscMatrix::new(dim, dim, colptr, rowval, nzval);
+        let mut signs = vec![1i8; np];
+        signs.resize(dim, -1);
+        let opts = QDLDLSettingsBuilder::default().Dsigns(signs).build().ok()?;
+        let mut ldl = QDLDLFactorisation::new(&k, Some(opts)).ok()?;
+        // Right-hand side: minus the linearization error of each defect row
+        // (the defect rows come first, node-major); boundary rows are linear.
+        let mut rhs = vec![0.0; dim];
+        let defects = self.defects(&sub.trajectory);
+        for (r, (d, v)) in defects
+            .iter()
+            .flatten()
+            .zip(&sub.defect_virtual_control)
+            .enumerate()
+        {
+            rhs[np + r] = -(d + v);
+        }
+        ldl.solve(&mut rhs);
+        let z: Vec<f64> = (0..np)
+            .map(|j| (sub.z[j] + rhs[j]).clamp(self.lo[j], self.hi[j]))
+            .collect();
+        let t = self.from_scaled(&z);
+        t.is_finite().then_some(t)
+    }
+
     /// Solve one subproblem with Clarabel; an error names the solver status when it fails.
     pub fn solve(&self, data: &ConicData) -> Result<SubproblemResult, String> {
         crate::conic::solve_once(self, data)
@@ -847,7 +932,12 @@ impl Transcription {
                 vc = vc.max((sol.x[l.dir(i, r, 0)] - sol.x[l.dir(i, r, 1)]).abs());
             }
         }
+        let defect_virtual_control = (0..l.n)
+            .flat_map(|i| (0..NX).map(move |c| (i, c)))
+            .map(|(i, c)| sol.x[l.vc_pos(i, c)] - sol.x[l.vc_neg(i, c)])
+            .collect();
         Ok(SubproblemResult {
+            defect_virtual_control,
             trajectory: self.from_scaled(&z),
             z,
             model_cost: data.q_model.iter().zip(&sol.x).map(|(q, x)| q * x).sum(),
