@@ -133,7 +133,7 @@ fn solve(args: SolveArgs) -> ExitCode {
     let mut progress = |r: &IterationRecord| {
         if !quiet {
             eprintln!(
-                "iter {:>3}  J {:>+12.6e}  m_f {:>10.1} kg  step {:>9.2e}  vc {:>9.2e}  radius {:>8.2e}  rho {:>+7.3}  {}  ipm {:>2}  {:>7.2} ms",
+                "iter {:>3}  J {:>+12.6e}  m_f {:>10.1} kg  step {:>9.2e}  vc {:>9.2e}  radius {:>8.2e}  rho {:>+7.3}  {}{}  ipm {:>2}  {:>7.2} ms",
                 r.iteration,
                 r.cost,
                 r.final_mass_kg,
@@ -142,6 +142,8 @@ fn solve(args: SolveArgs) -> ExitCode {
                 r.trust_radius,
                 r.rho,
                 if r.accepted { "acc" } else { "rej" },
+                // The candidate was judged after its second-order correction.
+                if r.corrected { "+soc" } else { "    " },
                 r.ipm_iterations,
                 r.ms
             );

@@ -113,6 +113,12 @@ pub struct GuidanceConfig {
     /// docs/guidance.md for the campaigns with the planner's 0.01).
     /// Range [0, 1e6].
     pub replan_proximal_weight: f64,
+    /// Whether re-plans use the second-order correction of poor steps
+    /// (`solver.second_order_correction`, which the cold first plan keeps).
+    /// Default false: re-plans are flown unconverged at their iteration
+    /// budget, where the correction costs time and buys no accuracy
+    /// (docs/guidance.md, "Second-order correction").
+    pub replan_second_order_correction: bool,
     /// Wall-clock deadline of one re-plan [s], reported only (re-plans past
     /// it count as `late`); 0 means the re-plan period. Default 0.
     pub deadline_s: f64,
@@ -227,6 +233,7 @@ impl Default for GuidanceConfig {
             replan_max_iterations: 12,
             replan_relaxed_iterations: 0,
             replan_proximal_weight: 0.0,
+            replan_second_order_correction: false,
             deadline_s: 0.0,
             stop_time_to_go_s: 1.0,
             stop_altitude_m: 2.0,
@@ -523,6 +530,7 @@ pub fn fly(
     planner.scenario.solver.max_iterations = guidance.replan_max_iterations;
     planner.warm_relaxed_iterations = guidance.replan_relaxed_iterations;
     planner.warm_proximal_weight = guidance.replan_proximal_weight;
+    planner.scenario.solver.second_order_correction = guidance.replan_second_order_correction;
     planner.scenario.solver.terminal_lateral_weight = guidance.terminal_lateral_weight;
     if guidance.replan_nodes > 0 {
         let d = &mut planner.scenario.discretization;

@@ -193,7 +193,8 @@ pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
         relaxed.solver.formulation = Formulation::Paper;
         relaxed.solver.max_iterations = budget.min(scenario.solver.max_iterations);
         // Measured with examples/convergence: the relaxed phase does best with
-        // a trust region that grows readily, the exact phase with a cautious one.
+        // a trust region that grows readily. (The exact phase uses the
+        // scenario's ρ1, ρ2, chosen with the second-order correction on.)
         relaxed.solver.rho1 = RELAXED_RHO1;
         relaxed.solver.rho2 = RELAXED_RHO2;
         relaxed.solver.grow = RELAXED_GROW;
@@ -394,8 +395,10 @@ pub fn solve_from_with(
         // trust region while the model over-predicts (ρ < ρ2). The ∞-norm
         // linear model moves every free variable to the box, so its steps
         // never shrink on their own near the optimum; CREEP_WINDOW such
-        // steps in a row are treated like ρ < ρ1.
-        let creeping = accepted
+        // steps in a row are treated like ρ < ρ1. (Without the second-order
+        // correction the rejected steps shrink the radius instead.)
+        let creeping = settings.second_order_correction
+            && accepted
             && rho < settings.rho2
             && step >= CREEP_BOUND * radius
             && last_vc <= settings.virtual_control_tolerance;
