@@ -152,6 +152,28 @@ fn assembly(c: &mut Criterion) {
     g.finish();
 }
 
+/// The second-order correction of a candidate (`Transcription::
+/// second_order_correction`: defects, one sparse LDLᵀ factorization and
+/// solve), against the subproblem whose candidate it corrects.
+fn correction(c: &mut Criterion) {
+    let mut g = c.benchmark_group("correction");
+    g.sample_size(20);
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(3));
+    for n in [20, 40] {
+        let (tr, guess, radius) = first_subproblem(n);
+        let data = tr.assemble(&guess, radius, 0.0);
+        let sub = tr.solve(&data).expect("subproblem solves");
+        g.bench_function(BenchmarkId::from_parameter(n), |b| {
+            b.iter(|| {
+                tr.second_order_correction(black_box(&data), black_box(&sub))
+                    .expect("the correction factors")
+            })
+        });
+    }
+    g.finish();
+}
+
 /// One Jacobian evaluation (`linearize`: f, ∂f/∂x, ∂f/∂u by forward-mode AD)
 /// at the straight-line guess's middle node, in both formulations.
 fn jacobian(c: &mut Criterion) {
@@ -190,6 +212,7 @@ criterion_group!(
     lgr_setup,
     jacobian,
     assembly,
+    correction,
     subproblem,
     cold_solve,
     cold_solve_hp,
