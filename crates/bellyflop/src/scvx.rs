@@ -288,7 +288,7 @@ pub fn solve_from_with(
     for iteration in 1..=settings.max_iterations {
         let t0 = Instant::now();
         let data = tr.assemble(&reference, radius, settings.proximal_weight);
-        let sub = match tr.solve_with(conic, &data) {
+        let mut sub = match tr.solve_with(conic, &data) {
             Ok(s) => s,
             Err(msg) => {
                 // A failed subproblem is treated like a rejected step.
@@ -301,7 +301,6 @@ pub fn solve_from_with(
                 continue;
             }
         };
-        let mut sub = sub;
         let mut merit = tr.merit(&sub.trajectory);
         let mut step = inf_norm_diff(&sub.z, &z_ref);
         let predicted = j_ref - sub.model_cost;
@@ -318,10 +317,10 @@ pub fn solve_from_with(
         let mut corrected = false;
         if settings.second_order_correction && rho < settings.rho1 && step > settings.step_tolerance
         {
-            if let Some(t) = tr.second_order_correction(&data, &sub) {
+            if let Some((z, t)) = tr.second_order_correction(&data, &sub) {
                 let m = tr.merit(&t);
                 if ratio(m.total) > rho {
-                    sub.z = tr.to_scaled(&t);
+                    sub.z = z;
                     sub.trajectory = t;
                     step = inf_norm_diff(&sub.z, &z_ref);
                     merit = m;

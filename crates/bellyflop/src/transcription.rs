@@ -841,12 +841,13 @@ impl Transcription {
     /// One sparse quasi-definite LDLᵀ solve of [I Aᵀ; A −εI] (Clarabel's
     /// QDLDL) instead of a second conic solve: measured on 40 dispersed
     /// states, a conic correction doubles the cost of a corrected iteration
-    /// for no better answers. `None` if the system cannot be factored.
+    /// for no better answers. Returns the corrected scaled trajectory
+    /// variables and the trajectory; `None` if the system cannot be factored.
     pub fn second_order_correction(
         &self,
         data: &ConicData,
         sub: &SubproblemResult,
-    ) -> Option<Trajectory> {
+    ) -> Option<(Vec<f64>, Trajectory)> {
         use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
         let l = self.layout;
         let np = l.n_primal();
@@ -854,35 +855,24 @@ impl Transcription {
             Some(SupportedConeT::ZeroConeT(m)) => *m,
             _ => return None,
         };
-        // Column np + r of the upper triangle of K holds row r of A_eq over
-        // the trajectory variables, then the −ε diagonal.
-        let mut rows: Vec<Vec<(usize, f64)>> = vec![vec![]; m_eq];
+        // Upper triangle of K: the unit primal block, A_eq (trajectory
+        // columns) as the block above the −ε diagonal.
+        let dim = np + m_eq;
+        let (mut ri, mut ci, mut vv): (Vec<usize>, Vec<usize>, Vec<f64>) =
+            ((0..np).collect(), (0..np).collect(), vec![1.0; np]);
         for j in 0..np {
             for k in data.a.colptr[j]..data.a.colptr[j + 1] {
                 if data.a.rowval[k] < m_eq {
-                    rows[data.a.rowval[k]].push((j, data.a.nzval[k]));
+                    ri.push(j);
+                    ci.push(np + data.a.rowval[k]);
+                    vv.push(data.a.nzval[k]);
                 }
             }
         }
-        let dim = np + m_eq;
-        let mut colptr = Vec::with_capacity(dim + 1);
-        let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
-        colptr.push(0);
-        for j in 0..np {
-            rowval.push(j);
-            nzval.push(1.0);
-            colptr.push(rowval.len());
-        }
-        for (r, entries) in rows.iter().enumerate() {
-            for &(j, v) in entries {
-                rowval.push(j);
-                nzval.push(v);
-            }
-            rowval.push(np + r);
-            nzval.push(-CORRECTION_REGULARIZATION);
-            colptr.push(rowval.len());
-        }
-        let k = CscMatrix::new(dim, dim, colptr, rowval, nzval);
+        ri.extend(np..dim);
+        ci.extend(np..dim);
+        vv.resize(vv.len() + m_eq, -CORRECTION_REGULARIZATION);
+        let k = CscMatrix::new_from_triplets(dim, dim, ri, ci, vv);
         let mut signs = vec![1i8; np];
         signs.resize(dim, -1);
         let opts = QDLDLSettingsBuilder::default().Dsigns(signs).build().ok()?;
@@ -903,8 +893,11 @@ impl Transcription {
         let z: Vec<f64> = (0..np)
             .map(|j| (sub.z[j] + rhs[j]).clamp(self.lo[j], self.hi[j]))
             .collect();
+        if !z.iter().all(|v| v.is_finite()) {
+            return None;
+        }
         let t = self.from_scaled(&z);
-        t.is_finite().then_some(t)
+        Some((z, t))
     }
 
     /// Solve one subproblem with Clarabel; an error names the solver status when it fails.
@@ -922,20 +915,19 @@ impl Transcription {
         let l = self.layout;
         let sol = conic.solve(data)?;
         let z = sol.x[..l.n_primal()].to_vec();
-        let mut vc = 0.0f64;
+        let defect_virtual_control: Vec<f64> = (0..l.n)
+            .flat_map(|i| (0..NX).map(move |c| (i, c)))
+            .map(|(i, c)| sol.x[l.vc_pos(i, c)] - sol.x[l.vc_neg(i, c)])
+            .collect();
+        let mut vc = defect_virtual_control
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
         for i in 0..l.n {
-            for c in 0..NX {
-                vc = vc.max((sol.x[l.vc_pos(i, c)] - sol.x[l.vc_neg(i, c)]).abs());
-            }
             vc = vc.max(sol.x[l.buffer(i, 0)]).max(sol.x[l.buffer(i, 1)]);
             for r in 0..l.path_rows {
                 vc = vc.max((sol.x[l.dir(i, r, 0)] - sol.x[l.dir(i, r, 1)]).abs());
             }
         }
-        let defect_virtual_control = (0..l.n)
-            .flat_map(|i| (0..NX).map(move |c| (i, c)))
-            .map(|(i, c)| sol.x[l.vc_pos(i, c)] - sol.x[l.vc_neg(i, c)])
-            .collect();
         Ok(SubproblemResult {
             defect_virtual_control,
             trajectory: self.from_scaled(&z),

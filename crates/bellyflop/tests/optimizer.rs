@@ -420,7 +420,7 @@ fn second_order_correction_removes_the_linearization_error() {
             .fold(0.0f64, |m, d| m.max(d.abs()))
     };
     let before = max_defect(&sub.trajectory);
-    let corrected = tr
+    let (_, corrected) = tr
         .second_order_correction(&data, &sub)
         .expect("the correction factors");
     let after = max_defect(&corrected);
