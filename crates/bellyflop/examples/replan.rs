@@ -1,14 +1,15 @@
 //! Warm re-plan against a cold solve (issue 5): solve the paper's case, move
 //! 0.5 s along the plan, and re-plan from the plan's own state there.
 //!
-//! `cargo run --release -p bellyflop --example replan [N ...] [--relaxed K] [--proximal W]`
+//! `cargo run --release -p bellyflop --example replan [N ...] [--relaxed K] [--proximal W] [--intervals M]`
 //!
 //! Prints, per N, the iterations and wall time of the cold solve and of the
-//! warm re-plan, the re-plan's final mass against the cold plan's, and whether
-//! both are `solved`. `--relaxed K` and `--proximal W` set the planner's
-//! `warm_relaxed_iterations` (default 0) and `warm_proximal_weight` (default
-//! 0.01). Timing lives in the criterion bench (`warm_replan`); these are
-//! single runs.
+//! warm re-plan, the re-plan's final mass against the cold plan's, whether
+//! both are `solved`, and each re-plan iteration. `--relaxed K` and
+//! `--proximal W` set the planner's `warm_relaxed_iterations` (default 0) and
+//! `warm_proximal_weight` (default 0.01); `--intervals M` solves on an hp
+//! mesh of M intervals. Timing lives in the criterion bench (`warm_replan`);
+//! these are single runs.
 
 use bellyflop::replan::{initial_state, Planner};
 use bellyflop::scvx::Silent;
@@ -21,6 +22,7 @@ fn main() {
         args.get(i + 1)?.parse().ok()
     };
     let (relaxed, proximal) = (flag("--relaxed"), flag("--proximal"));
+    let intervals = flag("--intervals");
     let ns: Vec<usize> = args
         .iter()
         .enumerate()
@@ -32,9 +34,19 @@ fn main() {
     for n in ns {
         let mut s = Scenario::paper();
         s.discretization.nodes = n;
+        if let Some(m) = intervals {
+            s.discretization.intervals = m as usize;
+        }
         let mut planner = Planner::new(s);
         let cold = planner.cold(&mut Silent);
-        let plan = planner.plan.clone().expect("cold solve solved");
+        let Some(plan) = planner.plan.clone() else {
+            println!(
+                "{n:>3}  cold solve {}: {}",
+                cold.status.as_str(),
+                cold.message
+            );
+            continue;
+        };
         if let Some(k) = relaxed {
             planner.warm_relaxed_iterations = k as usize;
         }
@@ -57,8 +69,8 @@ fn main() {
         );
         for h in &warm.history {
             println!(
-                "       warm iter {}: step {:.2e} defect {:.2e} vc {:.2e} rho {:+.3} ipm {}",
-                h.iteration, h.step, h.defect, h.virtual_control, h.rho, h.ipm_iterations
+                "       warm iter {}: J {:.9e} m_f {:.4} step {:.2e} defect {:.2e} vc {:.2e} rho {:+.3} ipm {}",
+                h.iteration, h.cost, h.final_mass_kg, h.step, h.defect, h.virtual_control, h.rho, h.ipm_iterations
             );
         }
     }
