@@ -82,7 +82,7 @@ pub struct RunRow {
     pub late_replans: usize,
     pub max_replan_ms: f64,
     pub first_plan_nominal: bool,
-    /// Every re-plan's solve time [ms] (for the histogram; not in the CSV).
+    /// Every re-plan's solve time \[ms\] (for the histogram; not in the CSV).
     #[serde(skip)]
     pub replan_ms: Vec<f64>,
 }

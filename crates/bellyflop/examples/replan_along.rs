@@ -1,7 +1,7 @@
 //! Re-plan from states along the paper's plan, every 0.5 s: iterations,
 //! status and time of each warm re-plan (a diagnostic for the guidance loop).
 //!
-//! `cargo run --release -p bellyflop --example replan_along [N]`
+//! `cargo run --release -p bellyflop --example replan_along \[N\]`
 use bellyflop::replan::{initial_state, Planner};
 use bellyflop::scvx::Silent;
 use bellyflop::Scenario;

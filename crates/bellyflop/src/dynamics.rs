@@ -48,7 +48,7 @@ pub struct Model {
     pub l_t_pm: f64,
     /// L_D = −12·(l_cp − l_cg)/(6r² + l²) [1/m] (Eq. 22).
     pub l_d_pm: f64,
-    /// J/m = (6r² + l²)/12 [m²] (Eq. 3).
+    /// J/m = (6r² + l²)/12 \[m²\] (Eq. 3).
     pub inertia_per_mass_m2: f64,
     pub cg_m: f64,
     pub cp_m: f64,
@@ -80,7 +80,7 @@ impl Model {
         }
     }
 
-    /// Drag force (Dx, Dz) = −C_LD·‖V_a‖·V_a [N] on the air-relative velocity
+    /// Drag force (Dx, Dz) = −C_LD·‖V_a‖·V_a \[N\] on the air-relative velocity
     /// V_a = (Vx − W, Vz) (Eq. 2; W = 0 in the paper).
     fn drag<D: DualNum<Primitive = f64> + Copy>(&self, vx: D, vz: D) -> (D, D) {
         let vx = vx - self.wind_x_mps;
@@ -98,7 +98,7 @@ pub fn control_dim(form: Formulation) -> usize {
     }
 }
 
-/// Eq. (1)–(3): ẋ for state (x, z, Vx, Vz, θ, w, m) and control (T [N], δ [rad]).
+/// Eq. (1)–(3): ẋ for state (x, z, Vx, Vz, θ, w, m) and control (T \[N\], δ \[rad\]).
 pub fn rhs_physical<D: DualNum<Primitive = f64> + Copy>(
     model: &Model,
     s: &[D; 7],
@@ -124,7 +124,7 @@ pub fn rhs_physical<D: DualNum<Primitive = f64> + Copy>(
 }
 
 /// Eq. (8): the nozzle-rate augmented model of P2, state (x, z, Vx, Vz, θ, w, m, δ),
-/// control (T [N], χ [rad/s]).
+/// control (T \[N\], χ [rad/s]).
 pub fn rhs_augmented<D: DualNum<Primitive = f64> + Copy>(
     model: &Model,
     s: &[D; 8],

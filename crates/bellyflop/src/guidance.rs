@@ -84,7 +84,7 @@ pub struct GuidanceConfig {
     /// Re-plan from the measured state at all; false flies the first plan
     /// open loop. Default true.
     pub replan: bool,
-    /// Re-plan rate [Hz]. Default 2. Range (0, 100].
+    /// Re-plan rate \[Hz\]. Default 2. Range (0, 100].
     pub replan_rate_hz: f64,
     /// Deadline of one re-plan, as an SCvx iteration budget (relaxed and
     /// exact phases together): a re-plan that has not converged within it
@@ -119,15 +119,15 @@ pub struct GuidanceConfig {
     /// budget, where the correction costs time and buys no accuracy
     /// (docs/guidance.md, "Second-order correction").
     pub replan_second_order_correction: bool,
-    /// Wall-clock deadline of one re-plan [s], reported only (re-plans past
+    /// Wall-clock deadline of one re-plan \[s\], reported only (re-plans past
     /// it count as `late`); 0 means the re-plan period. Default 0.
     pub deadline_s: f64,
-    /// No re-plan once the plan's time-to-go is below this [s]; the terminal
+    /// No re-plan once the plan's time-to-go is below this \[s\]; the terminal
     /// descent flies the rest. Plans end at the gate
     /// ([`GuidanceConfig::gate_height_m`]), so this is the time to the gate.
     /// Default 1.
     pub stop_time_to_go_s: f64,
-    /// No re-plan below this measured altitude above the gate [m]. Default 2.
+    /// No re-plan below this measured altitude above the gate \[m\]. Default 2.
     pub stop_altitude_m: f64,
     /// Stop re-planning once the plan's final burn (thrust at the planning
     /// limit) has begun. Default false: re-plans on the final burn often
@@ -182,7 +182,7 @@ pub struct GuidanceConfig {
     /// 10, 100, 300 and 1000; with the other defaults of their time).
     /// Range (0, 1e6].
     pub thrust_margin_weight: f64,
-    /// Height of the plans' end above the pad [m] (the gate); the terminal
+    /// Height of the plans' end above the pad \[m\] (the gate); the terminal
     /// descent flies from there to touchdown. 0 plans to the pad itself.
     /// A fuel-optimal plan ends on full (planning) thrust, so a vehicle
     /// that reaches the pad's neighbourhood slightly behind its plan has no
@@ -211,7 +211,7 @@ pub struct GuidanceConfig {
     /// χ_max·(1 − μ_δ). Default 0.2. Range [0, 0.5].
     pub gimbal_margin_frac: f64,
     /// Time constant of the position filter applied to the navigation
-    /// output before guidance uses it [s] ([`PositionFilter`]); 0 uses the
+    /// output before guidance uses it \[s\] ([`PositionFilter`]); 0 uses the
     /// raw measurement. Default 1. Range [0, 10].
     pub position_filter_s: f64,
     /// Vertical speed the terminal descent lands at [m/s]. Default 0.5
@@ -219,7 +219,7 @@ pub struct GuidanceConfig {
     /// 0.4, at 6005, 6035 and 6080 kg of propellant). Range (0, 3].
     pub touchdown_speed_mps: f64,
     /// Height above the pad where the terminal descent has slowed to
-    /// `touchdown_speed_mps` and holds it [m] (the flare). Default 0.5;
+    /// `touchdown_speed_mps` and holds it \[m\] (the flare). Default 0.5;
     /// each metre costs about one second of hover, ~350 kg of propellant
     /// for the paper's vehicle. Range [0, 10].
     pub flare_height_m: f64,
@@ -342,7 +342,7 @@ impl GuidanceConfig {
         Ok(())
     }
 
-    /// The deadline actually applied [s].
+    /// The deadline actually applied \[s\].
     pub fn deadline(&self) -> f64 {
         if self.deadline_s > 0.0 {
             self.deadline_s
@@ -373,9 +373,9 @@ pub enum ReplanOutcome {
 /// One re-plan of a run.
 #[derive(Debug, Clone, Serialize)]
 pub struct ReplanEvent {
-    /// Time of the measurement it started from [s].
+    /// Time of the measurement it started from \[s\].
     pub time_s: f64,
-    /// Wall-clock solve time [ms].
+    /// Wall-clock solve time \[ms\].
     pub solve_ms: f64,
     /// The wall-clock time exceeded [`GuidanceConfig::deadline`] (reported
     /// only; the budget decides).
@@ -417,14 +417,14 @@ pub struct Flight {
     pub first_plan_nominal: bool,
     pub replans: Vec<ReplanEvent>,
     pub saturation: SaturationCounts,
-    /// Initial mass of the true vehicle [kg].
+    /// Initial mass of the true vehicle \[kg\].
     pub initial_mass_kg: f64,
     /// The flown trajectory; empty unless asked for.
     pub trace: Vec<TraceSample>,
 }
 
 impl Flight {
-    /// Propellant burnt [kg] (initial mass minus mass at the end).
+    /// Propellant burnt \[kg\] (initial mass minus mass at the end).
     pub fn fuel_kg(&self) -> f64 {
         self.initial_mass_kg - end_state(&self.outcome).mass_kg
     }
@@ -738,7 +738,7 @@ pub const GAINS: Gains = Gains {
     trans_zeta: 1.0,
 };
 
-/// Largest pitch offset the horizontal loop may ask for [deg].
+/// Largest pitch offset the horizontal loop may ask for \[deg\].
 pub const MAX_PITCH_OFFSET_DEG: f64 = 5.0;
 
 /// Below this cos(θ + δ) the thrust is too far from vertical for the
@@ -826,7 +826,7 @@ const FINAL_BURN_FRACTION: f64 = 0.99;
 /// Gain of the flare's vertical-speed loop [1/s]: a_z = g0 + k(−v_td − V̂z).
 pub const TERMINAL_FLARE_GAIN_PER_S: f64 = 2.0;
 
-/// Largest tilt the terminal descent commands [deg].
+/// Largest tilt the terminal descent commands \[deg\].
 pub const TERMINAL_MAX_TILT_DEG: f64 = 5.0;
 
 /// Bandwidth of the terminal descent's horizontal loop [rad/s] (critically
@@ -841,7 +841,7 @@ pub const TERMINAL_PITCH_WN_RADPS: f64 = 1.5;
 
 /// With less time-to-go than this the terminal descent stops steering
 /// horizontally and holds the vehicle upright, leaving the pitch loop time to
-/// settle [s].
+/// settle \[s\].
 const TERMINAL_UPRIGHT_TGO_S: f64 = 2.0;
 
 /// The terminal descent, a feedback law on the measured (filtered) state

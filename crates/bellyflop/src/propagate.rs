@@ -270,7 +270,7 @@ pub struct Stats {
 pub struct Dop853 {
     pub rtol: f64,
     pub atol: f64,
-    /// Largest step size [s]; infinite by default.
+    /// Largest step size \[s\]; infinite by default.
     pub h_max: f64,
     /// Step limit per call of [`Dop853::integrate`].
     pub max_steps: usize,
@@ -627,11 +627,11 @@ pub struct Options {
 /// The miss at t_f against the scenario's terminal state.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct LandingError {
-    /// ‖(x, z)(t_f) − (x_f, z_f)‖ [m].
+    /// ‖(x, z)(t_f) − (x_f, z_f)‖ \[m\].
     pub position_m: f64,
     /// ‖(Vx, Vz)(t_f) − (Vx_f, Vz_f)‖ [m/s].
     pub velocity_mps: f64,
-    /// |θ(t_f) − θ_f| [rad].
+    /// |θ(t_f) − θ_f| \[rad\].
     pub pitch_rad: f64,
     /// |w(t_f) − w_f| [rad/s].
     pub rate_radps: f64,
@@ -646,12 +646,12 @@ pub struct Propagation {
     pub t_s: Vec<f64>,
     /// States (x, z, Vx, Vz, θ, w, m) at `t_s`, SI units and radians.
     pub states: Vec<[f64; 7]>,
-    /// Nozzle angle δ at `t_s` [rad] (interpolated or integrated).
+    /// Nozzle angle δ at `t_s` \[rad\] (interpolated or integrated).
     pub delta_rad: Vec<f64>,
     pub landing_error: LandingError,
-    /// m(t_f) of the propagation [kg].
+    /// m(t_f) of the propagation \[kg\].
     pub terminal_mass_kg: f64,
-    /// Propagated minus optimized final mass [kg].
+    /// Propagated minus optimized final mass \[kg\].
     pub mass_error_kg: f64,
     pub stats: Stats,
 }
@@ -670,11 +670,11 @@ impl Propagation {
 /// them, and the initial state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Controls<'a> {
-    /// Strictly increasing node times [s], from t_0 to t_f.
+    /// Strictly increasing node times \[s\], from t_0 to t_f.
     pub t_s: &'a [f64],
-    /// Thrust T at the node times [N].
+    /// Thrust T at the node times \[N\].
     pub thrust_n: &'a [f64],
-    /// Nozzle angle δ at the node times [rad] (used by [`NozzleModel::Angle`]).
+    /// Nozzle angle δ at the node times \[rad\] (used by [`NozzleModel::Angle`]).
     pub delta_rad: &'a [f64],
     /// Gimbal rate χ = δ̇ at the node times [rad/s] (used by [`NozzleModel::Rate`]).
     pub gimbal_rate_radps: &'a [f64],

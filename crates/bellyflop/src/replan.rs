@@ -67,14 +67,14 @@ impl Plan {
         }
     }
 
-    /// Thrust-per-mass σ [N/kg] and nozzle angle δ [rad] to fly at `t_s`
+    /// Thrust-per-mass σ [N/kg] and nozzle angle δ \[rad\] to fly at `t_s`
     /// (PCHIP through the node values, held beyond the ends).
     pub fn flight_controls_at(&self, t_s: f64) -> (f64, f64) {
         let t = t_s.clamp(0.0, self.tf_s());
         (self.sigma_pchip.eval(t), self.delta_pchip.eval(t))
     }
 
-    /// Duration t_f [s].
+    /// Duration t_f \[s\].
     pub fn tf_s(&self) -> f64 {
         self.trajectory.tf_s
     }
@@ -118,7 +118,7 @@ impl Plan {
         )
     }
 
-    /// Thrust [N] and gimbal rate [rad/s] commanded at `t_s`: σ·m with the
+    /// Thrust \[N\] and gimbal rate [rad/s] commanded at `t_s`: σ·m with the
     /// plan's mass there, and χ.
     pub fn command_at(&self, t_s: f64) -> (f64, f64) {
         let x = self.state_at(t_s);

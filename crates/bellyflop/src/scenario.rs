@@ -12,23 +12,23 @@ use crate::error::InputError;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Vehicle {
-    /// Dry mass m_dry [kg]; the final mass must stay at or above it (Eq. 4).
+    /// Dry mass m_dry \[kg\]; the final mass must stay at or above it (Eq. 4).
     pub dry_mass_kg: f64,
-    /// Body length l_s [m].
+    /// Body length l_s \[m\].
     pub length_m: f64,
-    /// Body radius r_s [m].
+    /// Body radius r_s \[m\].
     pub radius_m: f64,
-    /// Centre-of-mass position l_cg, measured from the engine gimbal [m].
+    /// Centre-of-mass position l_cg, measured from the engine gimbal \[m\].
     pub cg_m: f64,
-    /// Centre-of-pressure position l_cp, measured like l_cg [m].
+    /// Centre-of-pressure position l_cp, measured like l_cg \[m\].
     pub cp_m: f64,
-    /// Maximum thrust T_max [N].
+    /// Maximum thrust T_max \[N\].
     pub max_thrust_n: f64,
-    /// Minimum thrust T_min [N] (the engine cannot throttle below it, Eq. 5).
+    /// Minimum thrust T_min \[N\] (the engine cannot throttle below it, Eq. 5).
     pub min_thrust_n: f64,
-    /// Specific impulse I_sp [s].
+    /// Specific impulse I_sp \[s\].
     pub isp_s: f64,
-    /// Maximum nozzle (gimbal) angle δ_max [deg].
+    /// Maximum nozzle (gimbal) angle δ_max \[deg\].
     pub max_gimbal_deg: f64,
     /// Maximum nozzle angle rate χ_max [deg/s].
     pub max_gimbal_rate_degps: f64,
@@ -106,9 +106,9 @@ pub struct Discretization {
     /// paper's global mesh; more intervals make each subproblem far cheaper.
     #[serde(default = "one")]
     pub intervals: usize,
-    /// Initial guess of the final time t_f [s].
+    /// Initial guess of the final time t_f \[s\].
     pub tf_guess_s: f64,
-    /// Initial guess of the final mass [kg] for the straight-line guess.
+    /// Initial guess of the final mass \[kg\] for the straight-line guess.
     pub final_mass_guess_kg: f64,
 }
 

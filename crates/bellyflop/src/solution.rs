@@ -53,7 +53,7 @@ pub struct IterationRecord {
     pub iteration: usize,
     /// Penalized nonlinear cost J of the candidate (scaled).
     pub cost: f64,
-    /// Final mass of the candidate [kg].
+    /// Final mass of the candidate \[kg\].
     pub final_mass_kg: f64,
     /// ‖Δẑ‖∞ of the candidate against the reference (scaled).
     pub step: f64,
@@ -81,13 +81,13 @@ pub struct Checks {
     /// min over nodes of the cosine between the thrust and the nozzle axis
     /// (1 = along the nozzle, < 0 = pointing backwards).
     pub thrust_alignment_min: f64,
-    /// Largest thrust-bound violation max(T_min − T, T − T_max, 0) [N].
+    /// Largest thrust-bound violation max(T_min − T, T − T_max, 0) \[N\].
     pub thrust_bound_violation_n: f64,
     /// Largest nonlinear collocation defect (scaled by each state's scale).
     pub max_defect: f64,
     /// Largest virtual control of the last subproblem (scaled).
     pub virtual_control: f64,
-    /// min over nodes of z − z_f [m]; negative means below the landing altitude.
+    /// min over nodes of z − z_f \[m\]; negative means below the landing altitude.
     pub min_altitude_margin_m: f64,
 }
 

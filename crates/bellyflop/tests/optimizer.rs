@@ -262,7 +262,7 @@ fn soft_thrust_margin_gives_way_where_it_must() {
 const GATE: [f64; 6] = [0.0, 3.0, 0.0, -2.0, 0.0, 0.0];
 
 /// A closed-loop re-plan as `guidance` sets it up: from state (x, z, Vx,
-/// Vz [m, m/s], θ [deg], w [deg/s], m [kg], δ [deg]) to the gate, in a wind
+/// Vz [m, m/s], θ \[deg\], w [deg/s], m \[kg\], δ \[deg\]) to the gate, in a wind
 /// [m/s], with the 20 % nozzle margin, on N = 10 points.
 fn replan_at(s: &mut Scenario, x: [f64; 8], wind_mps: f64) {
     s.initial = bellyflop::scenario::InitialState {

@@ -69,11 +69,11 @@ use crate::sim::plant::{PlantState, TruthParams};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Dispersions {
-    /// Initial position x and z, per axis, 3σ [m]. Default 20. Range [0, 1000].
+    /// Initial position x and z, per axis, 3σ \[m\]. Default 20. Range [0, 1000].
     pub initial_position_3sigma_m: f64,
     /// Initial velocity Vx and Vz, per axis, 3σ [m/s]. Default 3. Range [0, 100].
     pub initial_velocity_3sigma_mps: f64,
-    /// Initial pitch θ, 3σ [deg]. Default 3. Range [0, 45].
+    /// Initial pitch θ, 3σ \[deg\]. Default 3. Range [0, 45].
     pub initial_pitch_3sigma_deg: f64,
     /// Initial pitch rate w, 3σ [deg/s]. Default 1. Range [0, 30].
     pub initial_pitch_rate_3sigma_degps: f64,
@@ -83,24 +83,24 @@ pub struct Dispersions {
     pub drag_coefficient_3sigma_frac: f64,
     /// Thrust magnitude, relative error, 3σ [-]. Default 0.03. Range [0, 0.5].
     pub thrust_3sigma_frac: f64,
-    /// Thrust-axis misalignment added to δ, 3σ [deg]. Default 0.5. Range [0, 10].
+    /// Thrust-axis misalignment added to δ, 3σ \[deg\]. Default 0.5. Range [0, 10].
     pub gimbal_bias_3sigma_deg: f64,
     /// Largest steady horizontal wind speed W_max [m/s]; the steady wind is
     /// uniform on (−W_max, W_max). Default 5. Range [0, 50].
     pub steady_wind_max_mps: f64,
     /// Gust standard deviation σ_g, 1σ [m/s]. Default 2. Range [0, 30].
     pub gust_sigma_mps: f64,
-    /// Gust correlation time τ [s]. Default 2. Range (0, 1000].
+    /// Gust correlation time τ \[s\]. Default 2. Range (0, 1000].
     pub gust_correlation_time_s: f64,
-    /// Navigation noise on x and z, 1σ [m]. Default 0.2. Range [0, 100].
+    /// Navigation noise on x and z, 1σ \[m\]. Default 0.2. Range [0, 100].
     pub nav_position_sigma_m: f64,
     /// Navigation noise on Vx and Vz, 1σ [m/s]. Default 0.05. Range [0, 10].
     pub nav_velocity_sigma_mps: f64,
-    /// Navigation noise on θ, 1σ [deg]. Default 0.1. Range [0, 10].
+    /// Navigation noise on θ, 1σ \[deg\]. Default 0.1. Range [0, 10].
     pub nav_pitch_sigma_deg: f64,
     /// Navigation noise on w, 1σ [deg/s]. Default 0.05. Range [0, 10].
     pub nav_pitch_rate_sigma_degps: f64,
-    /// Navigation noise on the mass, 1σ [kg]. Default 100 (≈ 0.1 % of the
+    /// Navigation noise on the mass, 1σ \[kg\]. Default 100 (≈ 0.1 % of the
     /// paper's landing mass). Range [0, 1e5].
     pub nav_mass_sigma_kg: f64,
 }
@@ -340,7 +340,7 @@ pub struct Realization {
     pub c_ld_factor: f64,
     /// Factor k_T on the thrust.
     pub thrust_factor: f64,
-    /// Thrust-axis misalignment b [rad].
+    /// Thrust-axis misalignment b \[rad\].
     pub gimbal_bias_rad: f64,
     /// Steady horizontal wind W_s [m/s] (positive along +x).
     pub steady_wind_mps: f64,
@@ -391,7 +391,7 @@ impl Realization {
     }
 
     /// The horizontal wind W_s + g_k [m/s] to hold over the coming step of
-    /// `dt_s` [s], then advance the gust process exactly by `dt_s`:
+    /// `dt_s` \[s\], then advance the gust process exactly by `dt_s`:
     /// g_{k+1} = a·g_k + σ·sqrt(1 − a²)·n_k, a = exp(−Δt/τ).
     ///
     /// One normal draw per call, even with gusts off. A non-positive `dt_s`

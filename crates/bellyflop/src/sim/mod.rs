@@ -36,7 +36,7 @@ use crate::error::InputError;
 ///
 /// Every plant step (at [`PlantConfig::rate_hz`]): the state is measured with
 /// the realization's navigation noise ([`Realization::measure`]), the
-/// controller maps (time [s], measured state) to a [`Command`], the wind for
+/// controller maps (time \[s\], measured state) to a [`Command`], the wind for
 /// the step is drawn ([`Realization::wind_at_step`]) and the plant advances one
 /// step with both held constant. A guidance law that runs slower than the
 /// plant can hold its last command inside the closure, or drive

@@ -63,21 +63,21 @@ mod ix {
 /// The full plant state, SI units and radians.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PlantState {
-    /// Downrange position x [m].
+    /// Downrange position x \[m\].
     pub x_m: f64,
-    /// Altitude z [m]; the pad is at the scenario's terminal z_f.
+    /// Altitude z \[m\]; the pad is at the scenario's terminal z_f.
     pub z_m: f64,
     /// Ground-relative horizontal velocity Vx [m/s].
     pub vx_mps: f64,
     /// Ground-relative vertical velocity Vz [m/s] (negative descending).
     pub vz_mps: f64,
-    /// Pitch θ from the vertical [rad].
+    /// Pitch θ from the vertical \[rad\].
     pub theta_rad: f64,
     /// Pitch rate w = θ̇ [rad/s].
     pub pitch_rate_radps: f64,
-    /// Mass m [kg].
+    /// Mass m \[kg\].
     pub mass_kg: f64,
-    /// Nozzle (gimbal) angle δ [rad], the state of δ̇ = χ.
+    /// Nozzle (gimbal) angle δ \[rad\], the state of δ̇ = χ.
     pub gimbal_rad: f64,
 }
 
@@ -134,7 +134,7 @@ impl PlantState {
 /// (T, χ) of problem P2 (Eq. 8).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Command {
-    /// Thrust magnitude T [N].
+    /// Thrust magnitude T \[N\].
     pub thrust_n: f64,
     /// Gimbal rate χ = δ̇ [rad/s].
     pub gimbal_rate_radps: f64,
@@ -303,7 +303,7 @@ pub struct TruthParams {
     pub c_ld_factor: f64,
     /// Factor k_T on the thrust magnitude (1 = nominal).
     pub thrust_factor: f64,
-    /// Thrust-axis misalignment b [rad], added to δ.
+    /// Thrust-axis misalignment b \[rad\], added to δ.
     pub gimbal_bias_rad: f64,
 }
 
@@ -409,10 +409,10 @@ pub fn rk4_step(
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PlantConfig {
-    /// Integration (and command) rate 1/Δt [Hz]; default 100 Hz. Range
+    /// Integration (and command) rate 1/Δt \[Hz\]; default 100 Hz. Range
     /// (0, 10000].
     pub rate_hz: f64,
-    /// The run ends with [`Outcome::TimeLimit`] at this time [s]; default
+    /// The run ends with [`Outcome::TimeLimit`] at this time \[s\]; default
     /// 60 s (about 5× the paper's 12-s burn). Range (0, 3600].
     pub max_time_s: f64,
 }
@@ -427,7 +427,7 @@ impl Default for PlantConfig {
 }
 
 impl PlantConfig {
-    /// Default rate, time limit 3× a planned flight time `tf_s` [s].
+    /// Default rate, time limit 3× a planned flight time `tf_s` \[s\].
     pub fn for_plan(tf_s: f64) -> Self {
         PlantConfig {
             max_time_s: 3.0 * tf_s,
@@ -458,9 +458,9 @@ impl PlantConfig {
 /// terminal state.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Touchdown {
-    /// Time of touchdown since the start of the run [s].
+    /// Time of touchdown since the start of the run \[s\].
     pub time_s: f64,
-    /// Downrange miss x − x_f [m].
+    /// Downrange miss x − x_f \[m\].
     pub x_error_m: f64,
     /// Vertical velocity Vz at touchdown [m/s] (negative descending).
     pub vertical_velocity_mps: f64,
@@ -468,11 +468,11 @@ pub struct Touchdown {
     pub horizontal_velocity_mps: f64,
     /// Speed ‖(Vx, Vz)‖ at touchdown [m/s].
     pub speed_mps: f64,
-    /// Pitch error θ − θ_f [deg], wrapped to [−180, 180).
+    /// Pitch error θ − θ_f \[deg\], wrapped to [−180, 180).
     pub pitch_error_deg: f64,
     /// Pitch rate w at touchdown [deg/s].
     pub pitch_rate_degps: f64,
-    /// Propellant left, m − m_dry [kg].
+    /// Propellant left, m − m_dry \[kg\].
     pub propellant_left_kg: f64,
     /// The full state at touchdown.
     pub state: PlantState,
@@ -588,12 +588,12 @@ impl Plant {
         &self.truth
     }
 
-    /// The step Δt [s].
+    /// The step Δt \[s\].
     pub fn dt_s(&self) -> f64 {
         self.dt_s
     }
 
-    /// Time since the start [s] (the event time once the run has ended).
+    /// Time since the start \[s\] (the event time once the run has ended).
     pub fn time_s(&self) -> f64 {
         self.time_s
     }
