@@ -39,7 +39,6 @@ cp -r "$SRC" "$SCRATCH/clarabel"
 patch --quiet -d "$SCRATCH/clarabel" -p1 < bench/experiments/clarabel-warm-start.patch \
     || die "the patch does not apply to $SRC"
 git ls-files -z | xargs -0 tar -cf - | tar -xf - -C "$SCRATCH/project"
-cp Cargo.lock "$SCRATCH/project/"
 printf '\n[patch.crates-io]\nclarabel = { path = "%s" }\n' "$SCRATCH/clarabel" >> "$SCRATCH/project/Cargo.toml"
 # The patched Clarabel is a path dependency, so its own lint warnings would show.
 export RUSTFLAGS="${RUSTFLAGS:-} --cap-lints allow"
@@ -48,16 +47,18 @@ export RUSTFLAGS="${RUSTFLAGS:-} --cap-lints allow"
     || die "build against the patched Clarabel failed"
 BIN="$SCRATCH/project/target/release/bellyflop"
 REPLAN="$SCRATCH/project/target/release/examples/replan"
+# Run a command with the warm start off ("cold") or at margin theta.
+with_theta() {
+    local t="$1"
+    shift
+    if [ "$t" = cold ]; then env -u CLARABEL_WARM "$@"; else CLARABEL_WARM="$t" "$@"; fi
+}
 
 echo "Cold solve of scenarios/paper.toml (IPM iterations per SCvx subproblem in brackets):"
 printf '%4s %6s | %-8s %5s %5s %12s  %s\n' N theta status SCvx IPM "m_f [kg]" "IPM per subproblem"
 for n in "${NODES[@]}"; do
     for t in cold $THETAS; do
-        if [ "$t" = cold ]; then
-            out="$(env -u CLARABEL_WARM "$BIN" solve --nodes "$n" --json --quiet || true)"
-        else
-            out="$(CLARABEL_WARM="$t" "$BIN" solve --nodes "$n" --json --quiet || true)"
-        fi
+        out="$(with_theta "$t" "$BIN" solve --nodes "$n" --json --quiet || true)"
         printf '%s' "$out" | python3 -c '
 import json, sys
 n, t = sys.argv[1], sys.argv[2]
@@ -74,9 +75,5 @@ echo "Warm re-plan 0.5 s along the plan (examples/replan; the first re-plan subp
 echo "starts cold in every row, the later ones from the previous subproblem's solution):"
 for t in cold $THETAS; do
     echo "theta = $t"
-    if [ "$t" = cold ]; then
-        env -u CLARABEL_WARM "$REPLAN" "${NODES[@]}" || echo "  (replan failed)"
-    else
-        CLARABEL_WARM="$t" "$REPLAN" "${NODES[@]}" || echo "  (replan failed)"
-    fi
+    with_theta "$t" "$REPLAN" "${NODES[@]}" || echo "  (replan failed)"
 done
