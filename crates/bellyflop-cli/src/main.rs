@@ -3,8 +3,9 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use bellyflop::direct::DirectIteration;
 use bellyflop::solution::IterationRecord;
-use bellyflop::{Formulation, Scenario, Solution};
+use bellyflop::{Formulation, Method, Scenario, Solution};
 use clap::{Parser, Subcommand, ValueEnum};
 
 mod campaign_plot;
@@ -53,6 +54,12 @@ enum FormulationArg {
     Vector,
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+enum MethodArg {
+    Scvx,
+    Direct,
+}
+
 #[derive(clap::Args, Default)]
 struct SolveArgs {
     /// Scenario TOML file; the paper's case when omitted.
@@ -68,6 +75,11 @@ struct SolveArgs {
     /// Thrust-direction formulation; overrides the scenario.
     #[arg(long, value_enum)]
     formulation: Option<FormulationArg>,
+    /// Solution method: `scvx` (successive convexification, the paper's) or
+    /// `direct` (interior point on the nonlinear program); overrides the
+    /// scenario's `solver.method`.
+    #[arg(long, value_enum)]
+    method: Option<MethodArg>,
     /// Print one JSON object on stdout instead of a summary.
     #[arg(long)]
     json: bool,
@@ -114,6 +126,12 @@ fn load(args: &SolveArgs) -> Result<Scenario, bellyflop::InputError> {
             FormulationArg::Vector => Formulation::Vector,
         };
     }
+    if let Some(m) = args.method {
+        scenario.solver.method = match m {
+            MethodArg::Scvx => Method::Scvx,
+            MethodArg::Direct => Method::Direct,
+        };
+    }
     scenario.validate()?;
     Ok(scenario)
 }
@@ -130,25 +148,7 @@ fn solve(args: SolveArgs) -> ExitCode {
         return code;
     }
     let quiet = args.quiet || args.json;
-    let mut progress = |r: &IterationRecord| {
-        if !quiet {
-            eprintln!(
-                "iter {:>3}  J {:>+12.6e}  m_f {:>10.1} kg  step {:>9.2e}  vc {:>9.2e}  radius {:>8.2e}  rho {:>+7.3}  {}{}  ipm {:>2}  {:>7.2} ms",
-                r.iteration,
-                r.cost,
-                r.final_mass_kg,
-                r.step,
-                r.virtual_control,
-                r.trust_radius,
-                r.rho,
-                if r.accepted { "acc" } else { "rej" },
-                // The candidate was judged after its second-order correction.
-                if r.corrected { "+soc" } else { "    " },
-                r.ipm_iterations,
-                r.ms
-            );
-        }
-    };
+    let mut progress = Progress { quiet };
     let solution = bellyflop::solve(&scenario, &mut progress);
     let propagation = landing::propagate(&scenario, &solution, args.interpolation);
     // One JSON object: printed by --json, and written as solution.json by --out.
@@ -171,6 +171,51 @@ fn solve(args: SolveArgs) -> ExitCode {
     ExitCode::from(solution.status.exit_code() as u8)
 }
 
+/// Per-iteration progress on stderr.
+struct Progress {
+    quiet: bool,
+}
+
+impl bellyflop::Observer for Progress {
+    fn on_iteration(&mut self, r: &IterationRecord) {
+        if !self.quiet {
+            eprintln!(
+                "iter {:>3}  J {:>+12.6e}  m_f {:>10.1} kg  step {:>9.2e}  vc {:>9.2e}  radius {:>8.2e}  rho {:>+7.3}  {}{}  ipm {:>2}  {:>7.2} ms",
+                r.iteration,
+                r.cost,
+                r.final_mass_kg,
+                r.step,
+                r.virtual_control,
+                r.trust_radius,
+                r.rho,
+                if r.accepted { "acc" } else { "rej" },
+                // The candidate was judged after its second-order correction.
+                if r.corrected { "+soc" } else { "    " },
+                r.ipm_iterations,
+                r.ms
+            );
+        }
+    }
+
+    fn on_direct_iteration(&mut self, r: &DirectIteration) {
+        if !self.quiet {
+            eprintln!(
+                "iter {:>3}  m_f {:>10.2} kg  inf_pr {:>9.2e}  inf_du {:>9.2e}  mu {:>8.1e}  alpha {:>8.2e}  reg {:>8.1e}  ls {:>2}{}  {:>6.3} ms",
+                r.iteration,
+                r.final_mass_kg,
+                r.primal_infeasibility,
+                r.dual_infeasibility,
+                r.mu,
+                r.step,
+                r.inertia_correction,
+                r.line_search_trials,
+                if r.restoration { " restoration" } else { "" },
+                r.ms
+            );
+        }
+    }
+}
+
 fn print_summary(scenario: &Scenario, s: &Solution) {
     println!("scenario      {}", scenario.name);
     println!("status        {}", s.status.as_str());
@@ -188,11 +233,17 @@ fn print_summary(scenario: &Scenario, s: &Solution) {
         "final mass    {:.1} kg (fuel {:.1} kg)",
         s.final_mass_kg, s.fuel_kg
     );
-    println!(
-        "iterations    {} SCvx, {} interior-point in all",
-        s.iterations,
-        s.history.iter().map(|h| h.ipm_iterations).sum::<u32>()
-    );
+    match s.method {
+        Method::Scvx => println!(
+            "iterations    {} SCvx, {} interior-point in all",
+            s.iterations,
+            s.history.iter().map(|h| h.ipm_iterations).sum::<u32>()
+        ),
+        Method::Direct => println!(
+            "iterations    {} interior-point (direct method)",
+            s.iterations
+        ),
+    }
     println!("solve time    {:.1} ms", s.solve_time_ms);
     println!(
         "checks        defect {:.1e}, virtual control {:.1e}, relaxation gap {:.1e}, thrust alignment {:.6}",

@@ -15,11 +15,14 @@
 //! - [`navigation`]: filters on the measured state (position, wind);
 //! - [`guidance`]: the closed loop — navigation, re-planning, control.
 pub mod conic;
+pub mod direct;
 pub mod dynamics;
 pub mod error;
 pub mod guidance;
+pub mod kkt;
 pub mod mesh;
 pub mod navigation;
+pub mod nlp;
 pub mod propagate;
 pub mod radau;
 pub mod replan;
@@ -31,6 +34,15 @@ pub mod transcription;
 pub mod validate;
 
 pub use error::InputError;
-pub use scenario::{Formulation, Scenario};
-pub use scvx::{solve, Observer};
+pub use scenario::{Formulation, Method, Scenario};
+pub use scvx::Observer;
 pub use solution::{Solution, Status};
+
+/// Solve a scenario with the method its settings name
+/// (`solver.method`: SCvx or the direct interior-point method).
+pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
+    match scenario.solver.method {
+        Method::Scvx => scvx::solve(scenario, observer),
+        Method::Direct => direct::solve(scenario, observer),
+    }
+}

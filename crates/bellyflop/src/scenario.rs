@@ -96,6 +96,27 @@ pub enum Formulation {
     Vector,
 }
 
+/// Which method solves the transcription.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Successive convexification with Clarabel (the paper's method).
+    #[default]
+    Scvx,
+    /// A primal–dual interior-point method on the nonlinear program P2
+    /// ([`crate::direct`]).
+    Direct,
+}
+
+impl Method {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Method::Scvx => "scvx",
+            Method::Direct => "direct",
+        }
+    }
+}
+
 /// Discretization: LGR collocation with N points (Section 3.2).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -120,6 +141,10 @@ fn one() -> usize {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SolverSettings {
+    /// The method: `scvx` (the paper's) or `direct`.
+    pub method: Method,
+    /// Settings of the direct method.
+    pub direct: crate::direct::DirectSettings,
     pub formulation: Formulation,
     /// Exact formulation only: iterations allowed to the paper's relaxation
     /// before the exact form is solved; its answer is kept only if it passes
@@ -180,6 +205,8 @@ pub struct SolverSettings {
 impl Default for SolverSettings {
     fn default() -> Self {
         Self {
+            method: Method::Scvx,
+            direct: crate::direct::DirectSettings::default(),
             formulation: Formulation::Exact,
             relaxed_first_iterations: 10,
             max_iterations: 100,

@@ -16,7 +16,10 @@ use crate::transcription::{Trajectory, Transcription};
 
 /// Receives each iteration as it completes (progress bars, logs, plots).
 pub trait Observer {
+    /// An SCvx iteration.
     fn on_iteration(&mut self, record: &IterationRecord);
+    /// An iteration of the direct method (ignored unless overridden).
+    fn on_direct_iteration(&mut self, _record: &crate::direct::DirectIteration) {}
 }
 
 /// An observer that ignores everything.

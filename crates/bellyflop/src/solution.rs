@@ -2,8 +2,9 @@
 
 use serde::Serialize;
 
+use crate::direct::DirectIteration;
 use crate::dynamics::{self, ix};
-use crate::scenario::Formulation;
+use crate::scenario::{Formulation, Method};
 use crate::transcription::{Trajectory, Transcription};
 
 /// How a solve ended. Each variant has its own exit code.
@@ -131,7 +132,13 @@ pub struct Solution {
     pub thrust_n: Vec<f64>,
     pub gimbal_rate_radps: Vec<f64>,
     pub checks: Checks,
+    /// The method that produced the answer.
+    pub method: Method,
+    /// SCvx iterations (empty for the direct method).
     pub history: Vec<IterationRecord>,
+    /// Interior-point iterations of the direct method (empty for SCvx).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub direct_history: Vec<DirectIteration>,
     /// The LCvx trajectory itself, for warm starts and re-propagation.
     #[serde(skip)]
     pub trajectory: Trajectory,
@@ -222,7 +229,9 @@ impl Solution {
             thrust_n,
             gimbal_rate_radps,
             checks,
+            method: Method::Scvx,
             history,
+            direct_history: Vec::new(),
             trajectory: t,
         }
     }
@@ -241,6 +250,7 @@ impl Solution {
     pub fn to_json(&self) -> serde_json::Value {
         let mut v = serde_json::to_value(self).expect("a Solution serializes");
         v["status"] = self.status.as_str().into();
+        v["method"] = self.method.as_str().into();
         v
     }
 }

@@ -1,0 +1,1221 @@
+//! The direct method: a primal–dual interior-point method on the nonlinear
+//! program P2 ([`crate::nlp`]), after Wächter & Biegler, "On the
+//! implementation of an interior-point filter line-search algorithm for
+//! large-scale nonlinear programming", Math. Prog. 106 (2006) — IPOPT's
+//! published algorithm, restricted to what P2 needs: equality constraints
+//! (the defects) and simple bounds.
+//!
+//! - Barrier subproblems min φ_μ(w) = f(w) − μ Σ ln(w − l) − μ Σ ln(u − w)
+//!   s.t. c(w) = 0, with the monotone μ update of §3.1 (Eq. 7).
+//! - Newton steps on the primal–dual equations (Eq. 11–13), solved by the
+//!   structured KKT solve of [`crate::kkt`]; inertia correction (§3.1.1)
+//!   regularizes each indefinite node block until the system has the
+//!   inertia of a descent direction.
+//! - The filter line search of §2.3 with second-order corrections (§2.4).
+//! - A feasibility restoration (§3.3, simplified to regularized
+//!   Gauss–Newton steps on ‖c‖ inside the bounds); when it cannot reduce
+//!   the infeasibility the problem is reported locally infeasible.
+//!
+//! The driver is [`solve_nlp`]; each iteration is reported to an
+//! [`Observer`] as a [`DirectIteration`].
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::kkt::{Inertia, KktMatrix, KktSolver};
+use crate::nlp::{Nlp, PointDerivatives, NL, NS};
+use crate::scvx::Observer;
+use crate::solution::Status;
+
+/// Settings of the direct method (`[solver.direct]` in a scenario).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DirectSettings {
+    /// Convergence: the scaled optimality error E_0 (Eq. 5) below this.
+    pub tolerance: f64,
+    /// Iteration limit; past it the status is `not_converged`.
+    pub max_iterations: usize,
+    /// Initial barrier parameter μ_0.
+    pub mu_init: f64,
+}
+
+impl Default for DirectSettings {
+    fn default() -> Self {
+        DirectSettings {
+            tolerance: 1e-8,
+            max_iterations: 500,
+            mu_init: 0.1,
+        }
+    }
+}
+
+/// One interior-point iteration, as recorded by the driver.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DirectIteration {
+    pub iteration: usize,
+    /// Final mass of the iterate \[kg\] (the objective).
+    pub final_mass_kg: f64,
+    /// Largest |defect| (scaled).
+    pub primal_infeasibility: f64,
+    /// Largest |∇L| (scaled, divided by IPOPT's s_d).
+    pub dual_infeasibility: f64,
+    /// Barrier parameter μ.
+    pub mu: f64,
+    /// Primal step length α.
+    pub step: f64,
+    /// Largest regularization δ_w of a node block (0: none needed).
+    pub inertia_correction: f64,
+    /// Backtracking trials of the line search.
+    pub line_search_trials: usize,
+    /// Whether the step came from the feasibility restoration.
+    pub restoration: bool,
+    pub ms: f64,
+}
+
+/// The answer of [`solve_nlp`]: the last iterate (scaled) and how it ended.
+#[derive(Debug, Clone)]
+pub struct NlpResult {
+    pub w: Vec<f64>,
+    pub lambda: Vec<f64>,
+    pub status: Status,
+    pub message: String,
+    pub history: Vec<DirectIteration>,
+    /// Largest |defect| of `w` (scaled).
+    pub max_defect: f64,
+}
+
+// Constants of Wächter & Biegler (2006), Table 1 and §3, at IPOPT's defaults.
+const KAPPA_EPS: f64 = 10.0;
+const KAPPA_MU: f64 = 0.2;
+const THETA_MU: f64 = 1.5;
+const TAU_MIN: f64 = 0.99;
+const KAPPA_SIGMA: f64 = 1e10;
+const S_MAX: f64 = 100.0;
+const GAMMA_THETA: f64 = 1e-5;
+const GAMMA_PHI: f64 = 1e-8;
+const DELTA_SWITCH: f64 = 1.0;
+const S_THETA: f64 = 1.1;
+const S_PHI: f64 = 2.3;
+const ETA_PHI: f64 = 1e-8;
+const GAMMA_ALPHA: f64 = 0.05;
+const MAX_SOC: usize = 4;
+const KAPPA_SOC: f64 = 0.99;
+const BOUND_PUSH: f64 = 1e-2;
+/// Inertia correction (§3.1.1): first trial, growth and decrease factors.
+const DELTA_W_FIRST: f64 = 1e-4;
+const DELTA_W_MIN: f64 = 1e-20;
+const DELTA_W_MAX: f64 = 1e40;
+const KAPPA_W_MINUS: f64 = 1.0 / 3.0;
+const KAPPA_W_PLUS: f64 = 8.0;
+const KAPPA_W_PLUS_FIRST: f64 = 100.0;
+/// Static regularization of every node block (scaled units). The free
+/// variables x and w enter the problem linearly and have no bounds, so
+/// their rows of W are zero; 1e-9 keeps the blocks factorable without
+/// counting as an inertia correction, and iterative refinement removes its
+/// effect on the step.
+const DELTA_STATIC: f64 = 1e-9;
+/// Dual regularization δ_c = 1e-8·μ^{1/4} when S is singular.
+const DELTA_C: f64 = 1e-8;
+/// Restoration: iterations, and the factor by which it must reduce θ.
+const RESTORATION_ITERATIONS: usize = 40;
+const RESTORATION_REDUCTION: f64 = 0.9;
+
+/// Scratch of one solve.
+struct Workspace {
+    kkt: KktMatrix,
+    solver: KktSolver,
+    derivs: Vec<PointDerivatives>,
+    jac: Vec<[[f64; NL]; NS]>,
+    c: Vec<f64>,
+    c_trial: Vec<f64>,
+    grad: Vec<f64>,
+    rw: Vec<f64>,
+    rl: Vec<f64>,
+    dw: Vec<f64>,
+    dl: Vec<f64>,
+    res_w: Vec<f64>,
+    res_l: Vec<f64>,
+    cor_w: Vec<f64>,
+    cor_l: Vec<f64>,
+    trial: Vec<f64>,
+}
+
+/// The primal–dual iterate.
+struct Iterate {
+    w: Vec<f64>,
+    lambda: Vec<f64>,
+    zl: Vec<f64>,
+    zu: Vec<f64>,
+}
+
+/// Which bounds each variable has (fixed variables have neither).
+struct Bounds {
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    has_lo: Vec<bool>,
+    has_hi: Vec<bool>,
+    free: Vec<bool>,
+}
+
+impl Bounds {
+    fn new(nlp: &Nlp) -> Self {
+        let n = nlp.n_var();
+        let free: Vec<bool> = (0..n).map(|j| !nlp.is_fixed(j)).collect();
+        Bounds {
+            has_lo: (0..n).map(|j| free[j] && nlp.lo[j].is_finite()).collect(),
+            has_hi: (0..n).map(|j| free[j] && nlp.hi[j].is_finite()).collect(),
+            lo: nlp.lo.clone(),
+            hi: nlp.hi.clone(),
+            free,
+        }
+    }
+
+    /// Push a point strictly inside the bounds (§3.6) and set fixed values.
+    fn push_inside(&self, w: &mut [f64]) {
+        for j in 0..w.len() {
+            if !self.free[j] {
+                w[j] = self.lo[j];
+                continue;
+            }
+            let (l, u) = (self.lo[j], self.hi[j]);
+            let gap = if self.has_lo[j] && self.has_hi[j] {
+                u - l
+            } else {
+                f64::INFINITY
+            };
+            if self.has_lo[j] {
+                let p = (BOUND_PUSH * l.abs().max(1.0)).min(BOUND_PUSH * gap);
+                w[j] = w[j].max(l + p);
+            }
+            if self.has_hi[j] {
+                let p = (BOUND_PUSH * u.abs().max(1.0)).min(BOUND_PUSH * gap);
+                w[j] = w[j].min(u - p);
+            }
+        }
+    }
+
+    /// The barrier term −μ Σ ln(slack) of φ_μ.
+    fn barrier(&self, w: &[f64], mu: f64) -> f64 {
+        let mut b = 0.0;
+        for j in 0..w.len() {
+            if self.has_lo[j] {
+                b -= mu * (w[j] - self.lo[j]).ln();
+            }
+            if self.has_hi[j] {
+                b -= mu * (self.hi[j] - w[j]).ln();
+            }
+        }
+        b
+    }
+
+    /// Largest α ≤ 1 with w + α·dw keeping a fraction τ of each slack.
+    fn max_step(&self, w: &[f64], dw: &[f64], tau: f64) -> f64 {
+        let mut a = 1.0f64;
+        for j in 0..w.len() {
+            if self.has_lo[j] && dw[j] < 0.0 {
+                a = a.min(-tau * (w[j] - self.lo[j]) / dw[j]);
+            }
+            if self.has_hi[j] && dw[j] > 0.0 {
+                a = a.min(tau * (self.hi[j] - w[j]) / dw[j]);
+            }
+        }
+        a
+    }
+}
+
+fn inf_norm(v: &[f64]) -> f64 {
+    v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
+fn l1_norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x.abs()).sum()
+}
+
+/// Solve P2 from the scaled point `w0` (pushed inside its bounds).
+pub fn solve_nlp(
+    nlp: &Nlp,
+    w0: &[f64],
+    lambda0: Option<&[f64]>,
+    settings: &DirectSettings,
+    observer: &mut dyn Observer,
+) -> NlpResult {
+    Driver::new(nlp, settings).run(w0, lambda0, observer)
+}
+
+/// Filter entries (θ, φ) (§2.3).
+struct Filter(Vec<(f64, f64)>);
+
+impl Filter {
+    fn acceptable(&self, theta: f64, phi: f64) -> bool {
+        self.0.iter().all(|&(t, p)| theta < t || phi < p)
+    }
+    fn add(&mut self, theta: f64, phi: f64) {
+        self.0.retain(|&(t, p)| t < theta || p < phi);
+        self.0.push((theta, phi));
+    }
+}
+
+/// How a line search ended.
+enum LineSearch {
+    Accepted {
+        alpha: f64,
+        trials: usize,
+        f_type: bool,
+    },
+    Failed,
+}
+
+struct Driver<'a> {
+    nlp: &'a Nlp,
+    settings: &'a DirectSettings,
+    bounds: Bounds,
+    ws: Workspace,
+    mu: f64,
+    tau: f64,
+    filter: Filter,
+    theta_max: f64,
+    theta_min: f64,
+    delta_c: f64,
+    /// δ_w of the last factorization (0: none needed) and the last nonzero one.
+    inertia: f64,
+    delta_w_last: f64,
+    /// Free primal variables (with t̂_f).
+    n_primal: usize,
+}
+
+impl<'a> Driver<'a> {
+    fn new(nlp: &'a Nlp, settings: &'a DirectSettings) -> Self {
+        let (nv, nc) = (nlp.n_var(), nlp.n_con());
+        let ws = Workspace {
+            kkt: KktMatrix::zeros(nlp),
+            solver: KktSolver::new(nlp),
+            derivs: vec![
+                PointDerivatives {
+                    f: [0.0; NS],
+                    jac: [[0.0; NL]; NS],
+                    hess: [[0.0; NL]; NL],
+                };
+                nlp.n
+            ],
+            jac: vec![[[0.0; NL]; NS]; nlp.n],
+            c: vec![0.0; nc],
+            c_trial: vec![0.0; nc],
+            grad: vec![0.0; nv],
+            rw: vec![0.0; nv],
+            rl: vec![0.0; nc],
+            dw: vec![0.0; nv],
+            dl: vec![0.0; nc],
+            res_w: vec![0.0; nv],
+            res_l: vec![0.0; nc],
+            cor_w: vec![0.0; nv],
+            cor_l: vec![0.0; nc],
+            trial: vec![0.0; nv],
+        };
+        Driver {
+            nlp,
+            settings,
+            bounds: Bounds::new(nlp),
+            ws,
+            mu: settings.mu_init,
+            tau: TAU_MIN.max(1.0 - settings.mu_init),
+            filter: Filter(Vec::new()),
+            theta_max: 0.0,
+            theta_min: 0.0,
+            delta_c: 0.0,
+            inertia: 0.0,
+            delta_w_last: 0.0,
+            n_primal: (0..nv).filter(|&j| !nlp.is_fixed(j)).count(),
+        }
+    }
+
+    fn final_mass_kg(&self, w: &[f64]) -> f64 {
+        let k = self.nlp.idx(self.nlp.n, crate::nlp::slot::M);
+        self.nlp.physical(crate::nlp::slot::M, w[k])
+    }
+
+    /// φ_μ(w) = f(w) + barrier.
+    fn phi(&self, w: &[f64]) -> f64 {
+        self.nlp.objective(w) + self.bounds.barrier(w, self.mu)
+    }
+
+    /// Derivatives at every collocation point, with multipliers λ.
+    fn evaluate(&mut self, w: &[f64], lambda: &[f64]) {
+        for i in 0..self.nlp.n {
+            let d = self
+                .nlp
+                .point_derivatives(w, i, &lambda[i * NS..(i + 1) * NS]);
+            self.ws.jac[i] = d.jac;
+            self.ws.derivs[i] = d;
+        }
+        self.nlp.defects(w, &mut self.ws.c);
+    }
+
+    /// ∇f + Jᵀλ into ws.grad (without the bound multipliers).
+    fn lagrangian_gradient(&mut self, w: &[f64], lambda: &[f64]) {
+        self.ws.grad.iter_mut().for_each(|g| *g = 0.0);
+        self.ws.grad[self.nlp.objective_gradient_index()] = -1.0;
+        self.nlp
+            .add_jt_lambda(w, &self.ws.jac, lambda, &mut self.ws.grad);
+    }
+
+    /// Optimality error E_μ (Eq. 5) of the iterate; ws.grad must hold ∇f + Jᵀλ.
+    fn optimality_error(&self, it: &Iterate, mu: f64) -> (f64, f64, f64) {
+        let b = &self.bounds;
+        let (mut dual, mut compl) = (0.0f64, 0.0f64);
+        let mut z_sum = 0.0;
+        let mut n_free = 0usize;
+        for j in 0..it.w.len() {
+            if !b.free[j] {
+                continue;
+            }
+            n_free += 1;
+            dual = dual.max((self.ws.grad[j] - it.zl[j] + it.zu[j]).abs());
+            if b.has_lo[j] {
+                compl = compl.max(((it.w[j] - b.lo[j]) * it.zl[j] - mu).abs());
+                z_sum += it.zl[j];
+            }
+            if b.has_hi[j] {
+                compl = compl.max(((b.hi[j] - it.w[j]) * it.zu[j] - mu).abs());
+                z_sum += it.zu[j];
+            }
+        }
+        let m = it.lambda.len();
+        let s_d = (S_MAX.max((l1_norm(&it.lambda) + z_sum) / (m + n_free) as f64)) / S_MAX;
+        let s_c = (S_MAX.max(z_sum / n_free as f64)) / S_MAX;
+        let primal = inf_norm(&self.ws.c);
+        let dual = dual / s_d;
+        (dual.max(primal).max(compl / s_c), primal, dual)
+    }
+
+    /// Fill the KKT blocks at the iterate: W = ∇²L + Σ, with the
+    /// regularization added at factorization.
+    fn build_kkt(&mut self, it: &Iterate) {
+        let nlp = self.nlp;
+        lagrangian_blocks(nlp, &it.w, &it.lambda, &self.ws.derivs, &mut self.ws.kkt);
+        let b = &self.bounds;
+        let sigma = |j: usize| {
+            let mut s = 0.0;
+            if b.has_lo[j] {
+                s += it.zl[j] / (it.w[j] - b.lo[j]);
+            }
+            if b.has_hi[j] {
+                s += it.zu[j] / (b.hi[j] - it.w[j]);
+            }
+            s
+        };
+        let kkt = &mut self.ws.kkt;
+        for k in 0..=nlp.n {
+            for s in 0..NL {
+                kkt.w[k][s][s] += sigma(nlp.idx(k, s)) + DELTA_STATIC;
+            }
+        }
+        kkt.h_tt = sigma(nlp.tf_idx());
+    }
+
+    /// Factor K with W + δ_w I and δ_c; its inertia.
+    fn factor_with(&mut self, delta_w: f64, delta_c: f64, h_tt: f64) -> Inertia {
+        let mut inertia = Inertia::default();
+        for k in 0..=self.nlp.n {
+            inertia = inertia + self.ws.solver.factor_node(k, &self.ws.kkt.w[k], delta_w);
+            if inertia.zero > 0 {
+                return inertia;
+            }
+        }
+        self.ws.kkt.h_tt = h_tt + delta_w;
+        self.ws.kkt.delta_c = delta_c;
+        inertia + self.ws.solver.factor_reduced(self.nlp, &self.ws.kkt)
+    }
+
+    /// Whether an inertia is that of a descent direction: n positive, m negative.
+    fn correct_inertia(&self, i: Inertia) -> bool {
+        i.zero == 0 && i.positive == self.n_primal && i.negative == self.nlp.n_con()
+    }
+
+    /// Inertia-correcting factorization (§3.1.1, Algorithm IC): the smallest
+    /// δ_w of IPOPT's schedule with which K has the inertia (n, m, 0), and
+    /// δ_c > 0 once K is singular.
+    fn factor(&mut self) -> Result<(), String> {
+        let h_tt = self.ws.kkt.h_tt;
+        let mut delta_w = 0.0;
+        let mut delta_c = 0.0;
+        loop {
+            let inertia = self.factor_with(delta_w, delta_c, h_tt);
+            if self.correct_inertia(inertia) {
+                break;
+            }
+            if inertia.zero > 0 && delta_c == 0.0 {
+                delta_c = DELTA_C * self.mu.powf(0.25);
+                continue;
+            }
+            delta_w = if delta_w == 0.0 {
+                if self.delta_w_last == 0.0 {
+                    DELTA_W_FIRST
+                } else {
+                    (KAPPA_W_MINUS * self.delta_w_last).max(DELTA_W_MIN)
+                }
+            } else if self.delta_w_last == 0.0 {
+                KAPPA_W_PLUS_FIRST * delta_w
+            } else {
+                KAPPA_W_PLUS * delta_w
+            };
+            if delta_w > DELTA_W_MAX {
+                return Err(
+                    "the Newton system cannot be regularized to the inertia of a descent direction"
+                        .into(),
+                );
+            }
+        }
+        if delta_w > 0.0 {
+            self.delta_w_last = delta_w;
+            // Keep the system consistent with its factors for refinement.
+            for w in &mut self.ws.kkt.w {
+                for (s, row) in w.iter_mut().enumerate() {
+                    row[s] += delta_w;
+                }
+            }
+        }
+        self.inertia = delta_w;
+        self.delta_c = delta_c;
+        Ok(())
+    }
+
+    /// Solve K d = r with two steps of iterative refinement against the
+    /// system without the static regularization.
+    fn solve_kkt(&mut self) {
+        let nlp = self.nlp;
+        let ws = &mut self.ws;
+        ws.solver
+            .solve(nlp, &ws.kkt, &ws.rw, &ws.rl, &mut ws.dw, &mut ws.dl);
+        for _ in 0..2 {
+            // K without the static part: subtract DELTA_STATIC·x from K x.
+            ws.kkt
+                .multiply(nlp, &ws.dw, &ws.dl, &mut ws.res_w, &mut ws.res_l);
+            let mut worst = 0.0f64;
+            for j in 0..ws.res_w.len() {
+                if j == nlp.tf_idx() {
+                    continue;
+                }
+                if !self.bounds.free[j] {
+                    ws.res_w[j] = 0.0;
+                    continue;
+                }
+                ws.res_w[j] = ws.rw[j] - (ws.res_w[j] - DELTA_STATIC * ws.dw[j]);
+                worst = worst.max(ws.res_w[j].abs());
+            }
+            let tf = nlp.tf_idx();
+            ws.res_w[tf] = ws.rw[tf] - ws.res_w[tf];
+            worst = worst.max(ws.res_w[tf].abs());
+            for r in 0..ws.res_l.len() {
+                ws.res_l[r] = ws.rl[r] - ws.res_l[r];
+                worst = worst.max(ws.res_l[r].abs());
+            }
+            let scale = inf_norm(&ws.rw).max(inf_norm(&ws.rl)).max(1e-300);
+            if worst <= 1e-12 * scale {
+                break;
+            }
+            ws.solver.solve(
+                nlp,
+                &ws.kkt,
+                &ws.res_w,
+                &ws.res_l,
+                &mut ws.cor_w,
+                &mut ws.cor_l,
+            );
+            for (d, c) in ws.dw.iter_mut().zip(&ws.cor_w) {
+                *d += c;
+            }
+            for (d, c) in ws.dl.iter_mut().zip(&ws.cor_l) {
+                *d += c;
+            }
+        }
+    }
+
+    /// Right-hand side of the barrier Newton step: −∇φ_μ − Jᵀλ and −c.
+    fn newton_rhs(&mut self, it: &Iterate) {
+        let b = &self.bounds;
+        for j in 0..it.w.len() {
+            let mut g = self.ws.grad[j];
+            if b.has_lo[j] {
+                g -= self.mu / (it.w[j] - b.lo[j]);
+            }
+            if b.has_hi[j] {
+                g += self.mu / (b.hi[j] - it.w[j]);
+            }
+            self.ws.rw[j] = if b.free[j] { -g } else { 0.0 };
+        }
+        for (r, c) in self.ws.rl.iter_mut().zip(&self.ws.c) {
+            *r = -c;
+        }
+    }
+
+    /// Initial multipliers: λ from the least-squares estimate (§3.6), set to
+    /// zero if it is large.
+    fn initial_multipliers(&mut self, it: &mut Iterate) {
+        let nlp = self.nlp;
+        for k in 0..=nlp.n {
+            let w = &mut self.ws.kkt.w[k];
+            *w = [[0.0; NL]; NL];
+            for (s, row) in w.iter_mut().enumerate() {
+                row[s] = 1.0;
+            }
+            self.ws.kkt.h_t[k] = [0.0; NL];
+            if k < nlp.n {
+                let d = &self.ws.derivs[k];
+                let half_tf = 0.5 * nlp.tf_s(&it.w);
+                for r in 0..NS {
+                    for c in 0..NL {
+                        self.ws.kkt.b[k][r][c] = -half_tf * d.jac[r][c];
+                    }
+                    self.ws.kkt.j_t[k][r] = -0.5 * nlp.tf_scale * d.f[r];
+                }
+            }
+        }
+        self.ws.kkt.h_tt = 1.0;
+        self.ws.kkt.delta_c = 0.0;
+        let inertia = self.factor_with(0.0, 0.0, 1.0);
+        if self.correct_inertia(inertia) {
+            for j in 0..it.w.len() {
+                let g = if j == nlp.objective_gradient_index() {
+                    -1.0
+                } else {
+                    0.0
+                };
+                self.ws.rw[j] = if self.bounds.free[j] {
+                    -(g - it.zl[j] + it.zu[j])
+                } else {
+                    0.0
+                };
+            }
+            self.ws.rl.iter_mut().for_each(|v| *v = 0.0);
+            let ws = &mut self.ws;
+            ws.solver
+                .solve(nlp, &ws.kkt, &ws.rw, &ws.rl, &mut ws.dw, &mut ws.dl);
+            if inf_norm(&ws.dl) <= 1e3 {
+                it.lambda.copy_from_slice(&ws.dl);
+                return;
+            }
+        }
+        it.lambda.iter_mut().for_each(|v| *v = 0.0);
+    }
+
+    fn run(
+        mut self,
+        w0: &[f64],
+        lambda0: Option<&[f64]>,
+        observer: &mut dyn Observer,
+    ) -> NlpResult {
+        let nlp = self.nlp;
+        let (nv, nc) = (nlp.n_var(), nlp.n_con());
+        let mut w = w0.to_vec();
+        self.bounds.push_inside(&mut w);
+        let b = &self.bounds;
+        let zl = (0..nv)
+            .map(|j| if b.has_lo[j] { 1.0 } else { 0.0 })
+            .collect();
+        let zu = (0..nv)
+            .map(|j| if b.has_hi[j] { 1.0 } else { 0.0 })
+            .collect();
+        let mut it = Iterate {
+            w,
+            lambda: vec![0.0; nc],
+            zl,
+            zu,
+        };
+        self.evaluate(&it.w.clone(), &it.lambda.clone());
+        match lambda0 {
+            Some(l) if l.len() == nc => it.lambda.copy_from_slice(l),
+            _ => self.initial_multipliers(&mut it),
+        }
+        let theta0 = l1_norm(&self.ws.c);
+        self.theta_max = 1e4 * theta0.max(1.0);
+        self.theta_min = 1e-4 * theta0.max(1.0);
+        let mut history = Vec::new();
+        let tol = self.settings.tolerance;
+        let mut outcome: Option<(Status, String)> = None;
+
+        for iteration in 1..=self.settings.max_iterations {
+            let t0 = Instant::now();
+            let (wc, lc) = (it.w.clone(), it.lambda.clone());
+            self.evaluate(&wc, &lc);
+            self.lagrangian_gradient(&wc, &lc);
+            let (e0, primal, dual) = self.optimality_error(&it, 0.0);
+            if !(e0.is_finite()) {
+                outcome = Some((
+                    Status::SolverFailed,
+                    "the iterate is no longer finite".to_string(),
+                ));
+                break;
+            }
+            if e0 <= tol {
+                outcome = Some((Status::Solved, String::new()));
+                break;
+            }
+            // Monotone barrier update (§3.1, Eq. 7), possibly several times.
+            while self.optimality_error(&it, self.mu).0 <= KAPPA_EPS * self.mu
+                && self.mu > tol / 10.0
+            {
+                self.mu = (tol / 10.0).max((KAPPA_MU * self.mu).min(self.mu.powf(THETA_MU)));
+                self.tau = TAU_MIN.max(1.0 - self.mu);
+                self.filter = Filter(Vec::new());
+            }
+            self.build_kkt(&it);
+            if let Err(msg) = self.factor() {
+                outcome = Some((Status::SolverFailed, msg));
+                break;
+            }
+            self.newton_rhs(&it);
+            self.solve_kkt();
+            let (step, trials, restoration) = match self.line_search(&mut it) {
+                LineSearch::Accepted {
+                    alpha,
+                    trials,
+                    f_type,
+                } => {
+                    if !f_type {
+                        let theta = l1_norm(&self.ws.c);
+                        let phi = self.phi(&wc);
+                        self.filter
+                            .add((1.0 - GAMMA_THETA) * theta, phi - GAMMA_PHI * theta);
+                    }
+                    (alpha, trials, false)
+                }
+                LineSearch::Failed => match self.restore(&mut it) {
+                    Ok(()) => (0.0, 0, true),
+                    Err(msg) => {
+                        outcome = Some((Status::Infeasible, msg));
+                        break;
+                    }
+                },
+            };
+            let record = DirectIteration {
+                iteration,
+                final_mass_kg: self.final_mass_kg(&it.w),
+                primal_infeasibility: primal,
+                dual_infeasibility: dual,
+                mu: self.mu,
+                step,
+                inertia_correction: self.inertia,
+                line_search_trials: trials,
+                restoration,
+                ms: t0.elapsed().as_secs_f64() * 1e3,
+            };
+            observer.on_direct_iteration(&record);
+            history.push(record);
+        }
+        let (status, message) = outcome.unwrap_or((
+            Status::NotConverged,
+            format!(
+                "no convergence in {} interior-point iterations; the last iterate is returned",
+                self.settings.max_iterations
+            ),
+        ));
+        self.nlp.defects(&it.w, &mut self.ws.c);
+        NlpResult {
+            max_defect: inf_norm(&self.ws.c),
+            w: it.w,
+            lambda: it.lambda,
+            status,
+            message,
+            history,
+        }
+    }
+
+    /// Bound-multiplier step dz from dw (Eq. 13) and its largest step α_z.
+    fn dual_step(&self, it: &Iterate, dw: &[f64]) -> (Vec<f64>, Vec<f64>, f64) {
+        let b = &self.bounds;
+        let n = it.w.len();
+        let (mut dzl, mut dzu) = (vec![0.0; n], vec![0.0; n]);
+        let mut a = 1.0f64;
+        for j in 0..n {
+            if b.has_lo[j] {
+                let s = it.w[j] - b.lo[j];
+                dzl[j] = self.mu / s - it.zl[j] - it.zl[j] / s * dw[j];
+                if dzl[j] < 0.0 {
+                    a = a.min(-self.tau * it.zl[j] / dzl[j]);
+                }
+            }
+            if b.has_hi[j] {
+                let s = b.hi[j] - it.w[j];
+                dzu[j] = self.mu / s - it.zu[j] + it.zu[j] / s * dw[j];
+                if dzu[j] < 0.0 {
+                    a = a.min(-self.tau * it.zu[j] / dzu[j]);
+                }
+            }
+        }
+        (dzl, dzu, a)
+    }
+
+    /// Accept the trial point: primal and λ by α, bound multipliers by α_z,
+    /// then the safeguard of Eq. 16.
+    fn accept(&mut self, it: &mut Iterate, alpha: f64, dw: &[f64], dl: &[f64]) {
+        let (dzl, dzu, az) = self.dual_step(it, dw);
+        for j in 0..it.w.len() {
+            it.w[j] += alpha * dw[j];
+        }
+        for (l, d) in it.lambda.iter_mut().zip(dl) {
+            *l += alpha * d;
+        }
+        let b = &self.bounds;
+        for j in 0..it.w.len() {
+            if b.has_lo[j] {
+                let s = it.w[j] - b.lo[j];
+                let z = it.zl[j] + az * dzl[j];
+                it.zl[j] = z.clamp(self.mu / (KAPPA_SIGMA * s), KAPPA_SIGMA * self.mu / s);
+            }
+            if b.has_hi[j] {
+                let s = b.hi[j] - it.w[j];
+                let z = it.zu[j] + az * dzu[j];
+                it.zu[j] = z.clamp(self.mu / (KAPPA_SIGMA * s), KAPPA_SIGMA * self.mu / s);
+            }
+        }
+    }
+
+    /// θ and φ_μ at w + α·d (in ws.trial, ws.c_trial).
+    fn trial_point(&mut self, w: &[f64], d: &[f64], alpha: f64) -> (f64, f64) {
+        for j in 0..w.len() {
+            self.ws.trial[j] = w[j] + alpha * d[j];
+        }
+        let trial = std::mem::take(&mut self.ws.trial);
+        self.nlp.defects(&trial, &mut self.ws.c_trial);
+        let phi = self.phi(&trial);
+        self.ws.trial = trial;
+        (l1_norm(&self.ws.c_trial), phi)
+    }
+
+    /// The acceptance tests of §2.3 for a trial point.
+    fn acceptable(
+        &self,
+        theta0: f64,
+        phi0: f64,
+        m_phi: f64,
+        alpha: f64,
+        theta: f64,
+        phi: f64,
+    ) -> Option<bool> {
+        if !theta.is_finite() || !phi.is_finite() || theta > self.theta_max {
+            return None;
+        }
+        if !self.filter.acceptable(theta, phi) {
+            return None;
+        }
+        let switching = m_phi < 0.0
+            && alpha * (-m_phi).powf(S_PHI) > DELTA_SWITCH * theta0.powf(S_THETA)
+            && theta0 <= self.theta_min;
+        if switching {
+            (phi <= phi0 + ETA_PHI * alpha * m_phi).then_some(true)
+        } else {
+            (theta <= (1.0 - GAMMA_THETA) * theta0 || phi <= phi0 - GAMMA_PHI * theta0)
+                .then_some(false)
+        }
+    }
+
+    /// The backtracking filter line search with second-order corrections.
+    fn line_search(&mut self, it: &mut Iterate) -> LineSearch {
+        let w = it.w.clone();
+        let dw = self.ws.dw.clone();
+        let dl = self.ws.dl.clone();
+        let theta0 = l1_norm(&self.ws.c);
+        let phi0 = self.phi(&w);
+        // ∇φ_μᵀ dw = −rwᵀ dw.
+        let m_phi: f64 = -self.ws.rw.iter().zip(&dw).map(|(a, b)| a * b).sum::<f64>();
+        let alpha_min = if m_phi < 0.0 {
+            GAMMA_ALPHA
+                * GAMMA_THETA
+                    .min(GAMMA_PHI * theta0 / -m_phi)
+                    .min(DELTA_SWITCH * theta0.powf(S_THETA) / (-m_phi).powf(S_PHI))
+        } else {
+            GAMMA_ALPHA * GAMMA_THETA
+        };
+        let mut alpha = self.bounds.max_step(&w, &dw, self.tau);
+        let mut trials = 0;
+        loop {
+            trials += 1;
+            let (theta, phi) = self.trial_point(&w, &dw, alpha);
+            if let Some(f_type) = self.acceptable(theta0, phi0, m_phi, alpha, theta, phi) {
+                self.accept(it, alpha, &dw, &dl);
+                return LineSearch::Accepted {
+                    alpha,
+                    trials,
+                    f_type,
+                };
+            }
+            if trials == 1 && theta >= theta0 {
+                if let Some(accepted) =
+                    self.second_order_correction(it, alpha, theta0, phi0, m_phi, theta, &w)
+                {
+                    return accepted;
+                }
+            }
+            alpha *= 0.5;
+            if alpha < alpha_min {
+                break;
+            }
+        }
+        LineSearch::Failed
+    }
+
+    /// Second-order corrections of the first trial (§2.4): steps on the
+    /// accumulated constraint values c_soc = α·c_soc + c(w + α d_soc).
+    #[allow(clippy::too_many_arguments)]
+    fn second_order_correction(
+        &mut self,
+        it: &mut Iterate,
+        alpha: f64,
+        theta0: f64,
+        phi0: f64,
+        m_phi: f64,
+        theta_trial: f64,
+        w: &[f64],
+    ) -> Option<LineSearch> {
+        let mut c_soc: Vec<f64> = self
+            .ws
+            .c
+            .iter()
+            .zip(&self.ws.c_trial)
+            .map(|(c, t)| alpha * c + t)
+            .collect();
+        let mut theta_old = theta_trial;
+        for p in 0..MAX_SOC {
+            for (r, c) in self.ws.rl.iter_mut().zip(&c_soc) {
+                *r = -c;
+            }
+            self.solve_kkt();
+            let d = self.ws.dw.clone();
+            let a_soc = self.bounds.max_step(w, &d, self.tau);
+            let (theta, phi) = self.trial_point(w, &d, a_soc);
+            if let Some(f_type) = self.acceptable(theta0, phi0, m_phi, alpha, theta, phi) {
+                let dl_soc = self.ws.dl.clone();
+                self.accept(it, a_soc, &d, &dl_soc);
+                return Some(LineSearch::Accepted {
+                    alpha: a_soc,
+                    trials: 1 + p + 1,
+                    f_type,
+                });
+            }
+            if theta > KAPPA_SOC * theta_old {
+                break;
+            }
+            theta_old = theta;
+            for (cs, t) in c_soc.iter_mut().zip(&self.ws.c_trial) {
+                *cs = a_soc * *cs + t;
+            }
+        }
+        None
+    }
+
+    /// Feasibility restoration: regularized Gauss–Newton steps on ½‖c‖²
+    /// that keep the bounds' barrier, until θ has fallen by
+    /// [`RESTORATION_REDUCTION`] and the point is acceptable to the filter.
+    fn restore(&mut self, it: &mut Iterate) -> Result<(), String> {
+        let nlp = self.nlp;
+        let theta_start = l1_norm(&self.ws.c);
+        let phi_start = self.phi(&it.w);
+        self.filter.add(
+            (1.0 - GAMMA_THETA) * theta_start,
+            phi_start - GAMMA_PHI * theta_start,
+        );
+        let zeta = self.mu.sqrt();
+        for _ in 0..RESTORATION_ITERATIONS {
+            let (w, l) = (it.w.clone(), it.lambda.clone());
+            self.evaluate(&w, &l);
+            let theta0 = l1_norm(&self.ws.c);
+            // W = ζ I + Σ; gradient of the barrier only.
+            self.build_kkt(it);
+            for k in 0..=nlp.n {
+                for r in 0..NL {
+                    for c in 0..NL {
+                        if r != c {
+                            self.ws.kkt.w[k][r][c] = 0.0;
+                        }
+                    }
+                    self.ws.kkt.w[k][r][r] = self.ws.kkt.w[k][r][r].max(0.0) + zeta;
+                }
+                self.ws.kkt.h_t[k] = [0.0; NL];
+            }
+            self.ws.kkt.h_tt += zeta;
+            if self.factor().is_err() {
+                return Err("the restoration's Newton system cannot be factored".into());
+            }
+            let b = &self.bounds;
+            for j in 0..w.len() {
+                let mut g = 0.0;
+                if b.has_lo[j] {
+                    g -= self.mu / (w[j] - b.lo[j]);
+                }
+                if b.has_hi[j] {
+                    g += self.mu / (b.hi[j] - w[j]);
+                }
+                self.ws.rw[j] = if b.free[j] { -g } else { 0.0 };
+            }
+            for (r, c) in self.ws.rl.iter_mut().zip(&self.ws.c) {
+                *r = -c;
+            }
+            self.solve_kkt();
+            let dw = self.ws.dw.clone();
+            let mut alpha = self.bounds.max_step(&w, &dw, self.tau);
+            let mut accepted = false;
+            while alpha > 1e-8 {
+                let (theta, _) = self.trial_point(&w, &dw, alpha);
+                if theta <= (1.0 - GAMMA_THETA) * theta0 {
+                    accepted = true;
+                    break;
+                }
+                alpha *= 0.5;
+            }
+            if !accepted {
+                return Err(format!(
+                    "locally infeasible: the feasibility restoration stalled at a defect of {:.2e} (scaled, sum over the collocation equations)",
+                    theta0
+                ));
+            }
+            let zero = vec![0.0; it.lambda.len()];
+            self.accept(it, alpha, &dw, &zero);
+            self.nlp.defects(&it.w, &mut self.ws.c);
+            let theta = l1_norm(&self.ws.c);
+            let phi = self.phi(&it.w);
+            if theta <= RESTORATION_REDUCTION * theta_start && self.filter.acceptable(theta, phi) {
+                // Fresh multipliers for the regular phase.
+                let (w, l) = (it.w.clone(), it.lambda.clone());
+                self.evaluate(&w, &l);
+                self.initial_multipliers(it);
+                return Ok(());
+            }
+        }
+        Err(format!(
+            "locally infeasible: {RESTORATION_ITERATIONS} restoration iterations reduced the defect from {theta_start:.2e} to {:.2e} only",
+            l1_norm(&self.ws.c)
+        ))
+    }
+}
+
+/// The Hessian of the Lagrangian f + λᵀc and the Jacobian of c in the
+/// blocks of [`KktMatrix`] (no barrier, no regularization), from the
+/// point derivatives at `w` with multipliers `lambda`.
+pub fn lagrangian_blocks(
+    nlp: &Nlp,
+    w: &[f64],
+    lambda: &[f64],
+    derivs: &[PointDerivatives],
+    kkt: &mut KktMatrix,
+) {
+    let n = nlp.n;
+    let half_tf = 0.5 * nlp.tf_s(w);
+    let half_scale = 0.5 * nlp.tf_scale;
+    for k in 0..=n {
+        kkt.w[k] = [[0.0; NL]; NL];
+        kkt.h_t[k] = [0.0; NL];
+        if k == n {
+            continue;
+        }
+        let d = &derivs[k];
+        let l = &lambda[k * NS..(k + 1) * NS];
+        for r in 0..NL {
+            for c in 0..NL {
+                kkt.w[k][r][c] = -half_tf * d.hess[r][c];
+            }
+            kkt.h_t[k][r] = -half_scale * (0..NS).map(|q| l[q] * d.jac[q][r]).sum::<f64>();
+        }
+        for r in 0..NS {
+            for c in 0..NL {
+                kkt.b[k][r][c] = -half_tf * d.jac[r][c];
+            }
+            kkt.j_t[k][r] = -half_scale * d.f[r];
+        }
+    }
+    kkt.h_tt = 0.0;
+    kkt.delta_c = 0.0;
+}
+
+/// Checks of a P2 answer against the nonlinear problem: its own defects,
+/// the thrust bounds at every reported value and the ground. The thrust is
+/// along the nozzle by construction (gap 0, alignment 1).
+pub fn checks(nlp: &Nlp, w: &[f64]) -> crate::solution::Checks {
+    use crate::nlp::slot;
+    let mut c = vec![0.0; nlp.n_con()];
+    nlp.defects(w, &mut c);
+    let m = &nlp.model;
+    let mut bound = 0.0f64;
+    for i in 0..nlp.n {
+        let t = nlp.physical(slot::T, w[nlp.idx(i, slot::T)]);
+        bound = bound.max(m.min_thrust_n - t).max(t - m.max_thrust_n);
+    }
+    let z_f = nlp.xf[slot::Z];
+    let min_altitude_margin_m = (0..=nlp.n)
+        .map(|k| nlp.physical(slot::Z, w[nlp.idx(k, slot::Z)]) - z_f)
+        .fold(f64::INFINITY, f64::min);
+    crate::solution::Checks {
+        relaxation_gap: 0.0,
+        thrust_alignment_min: 1.0,
+        thrust_bound_violation_n: bound,
+        max_defect: inf_norm(&c),
+        virtual_control: 0.0,
+        min_altitude_margin_m,
+    }
+}
+
+/// Solve a scenario with the direct method from the reference's straight
+/// line (states linear in τ, T mid-range, χ = 0, the scenario's guesses).
+pub fn solve(scenario: &crate::Scenario, observer: &mut dyn Observer) -> crate::Solution {
+    let nlp = Nlp::new(scenario);
+    let d = &scenario.discretization;
+    let w0 = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
+    solve_from(scenario, &nlp, &w0, None, observer)
+}
+
+/// Solve from a given scaled point (and optionally multipliers, for warm
+/// starts), and report the answer as a [`crate::Solution`].
+pub fn solve_from(
+    scenario: &crate::Scenario,
+    nlp: &Nlp,
+    w0: &[f64],
+    lambda0: Option<&[f64]>,
+    observer: &mut dyn Observer,
+) -> crate::Solution {
+    let start = Instant::now();
+    let r = solve_nlp(nlp, w0, lambda0, &scenario.solver.direct, observer);
+    let ms = start.elapsed().as_secs_f64() * 1e3;
+    let mut exact = scenario.clone();
+    exact.solver.formulation = crate::Formulation::Exact;
+    let tr = crate::transcription::Transcription::new(&exact);
+    let checks = checks(nlp, &r.w);
+    let (mut status, mut message) = (r.status, r.message);
+    if status == Status::Solved && checks.min_altitude_margin_m < -1e-6 {
+        status = Status::NonPhysical;
+        message = format!(
+            "the trajectory passes {:.3} m below the landing altitude",
+            -checks.min_altitude_margin_m
+        );
+    }
+    let mut sol = crate::Solution::new(
+        &tr,
+        nlp.to_trajectory(&r.w),
+        status,
+        message,
+        checks,
+        Vec::new(),
+        ms,
+    );
+    sol.method = crate::scenario::Method::Direct;
+    sol.iterations = r.history.len();
+    sol.direct_history = r.history;
+    sol
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Scenario;
+
+    /// ∇_w (f + λᵀc) of the transcription, from its point derivatives.
+    fn lagrangian_gradient(nlp: &Nlp, w: &[f64], lambda: &[f64]) -> Vec<f64> {
+        let jac: Vec<_> = (0..nlp.n)
+            .map(|i| {
+                nlp.point_derivatives(w, i, &lambda[i * NS..(i + 1) * NS])
+                    .jac
+            })
+            .collect();
+        let mut g = vec![0.0; nlp.n_var()];
+        g[nlp.objective_gradient_index()] = -1.0;
+        nlp.add_jt_lambda(w, &jac, lambda, &mut g);
+        g
+    }
+
+    /// The KKT blocks are the derivatives of the whole NLP: J·v against
+    /// differences of c, Jᵀλ against differences of λᵀc, and H·v against
+    /// differences of ∇L, including every t_f term, on the global mesh and
+    /// on an hp mesh.
+    #[test]
+    fn kkt_blocks_match_finite_differences() {
+        for (nodes, intervals) in [(7, 1), (9, 3)] {
+            let mut s = Scenario::paper();
+            s.discretization.nodes = nodes;
+            s.discretization.intervals = intervals;
+            let nlp = Nlp::new(&s);
+            let mut w = nlp.straight_line(11.0, 114_000.0);
+            let nv = nlp.n_var();
+            let v: Vec<f64> = (0..nv)
+                .map(|j| {
+                    if nlp.is_fixed(j) {
+                        0.0
+                    } else {
+                        ((j as f64) * 1.3).cos()
+                    }
+                })
+                .collect();
+            for j in 0..nv {
+                if !nlp.is_fixed(j) {
+                    w[j] += 0.03 * ((j as f64) * 0.37).sin();
+                }
+            }
+            let lambda: Vec<f64> = (0..nlp.n_con())
+                .map(|r| ((r as f64) * 0.91).sin())
+                .collect();
+            let derivs: Vec<_> = (0..nlp.n)
+                .map(|i| nlp.point_derivatives(&w, i, &lambda[i * NS..(i + 1) * NS]))
+                .collect();
+            let mut kkt = KktMatrix::zeros(&nlp);
+            lagrangian_blocks(&nlp, &w, &lambda, &derivs, &mut kkt);
+            let (mut yw, mut yl) = (vec![0.0; nv], vec![0.0; nlp.n_con()]);
+            // [H v + Jᵀ·0; J v] = K [v; 0].
+            kkt.multiply(&nlp, &v, &vec![0.0; nlp.n_con()], &mut yw, &mut yl);
+            let h = 1e-6;
+            let shift = |a: f64| -> Vec<f64> { w.iter().zip(&v).map(|(x, d)| x + a * d).collect() };
+            let (wp, wm) = (shift(h), shift(-h));
+            let (mut cp, mut cm) = (vec![0.0; nlp.n_con()], vec![0.0; nlp.n_con()]);
+            nlp.defects(&wp, &mut cp);
+            nlp.defects(&wm, &mut cm);
+            for r in 0..nlp.n_con() {
+                let fd = (cp[r] - cm[r]) / (2.0 * h);
+                assert!(
+                    (fd - yl[r]).abs() < 1e-6 * (1.0 + fd.abs()),
+                    "{nodes}/{intervals} (Jv)[{r}]: {} vs {fd}",
+                    yl[r]
+                );
+            }
+            let (gp, gm) = (
+                lagrangian_gradient(&nlp, &wp, &lambda),
+                lagrangian_gradient(&nlp, &wm, &lambda),
+            );
+            for j in 0..nv {
+                if nlp.is_fixed(j) {
+                    continue;
+                }
+                let fd = (gp[j] - gm[j]) / (2.0 * h);
+                assert!(
+                    (fd - yw[j]).abs() < 1e-5 * (1.0 + fd.abs()),
+                    "{nodes}/{intervals} (Hv)[{j}]: {} vs {fd}",
+                    yw[j]
+                );
+            }
+            // Jᵀλ = K [0; λ] on the free variables, against ∇(λᵀc) by differences.
+            kkt.multiply(&nlp, &vec![0.0; nv], &lambda, &mut yw, &mut yl);
+            let g = lagrangian_gradient(&nlp, &w, &lambda);
+            for j in 0..nv {
+                if nlp.is_fixed(j) {
+                    continue;
+                }
+                let mut e = w.clone();
+                e[j] += h;
+                let mut f = w.clone();
+                f[j] -= h;
+                let (mut c1, mut c2) = (vec![0.0; nlp.n_con()], vec![0.0; nlp.n_con()]);
+                nlp.defects(&e, &mut c1);
+                nlp.defects(&f, &mut c2);
+                let fd: f64 = (0..nlp.n_con())
+                    .map(|r| lambda[r] * (c1[r] - c2[r]) / (2.0 * h))
+                    .sum();
+                let obj = if j == nlp.objective_gradient_index() {
+                    -1.0
+                } else {
+                    0.0
+                };
+                assert!(
+                    (fd + obj - g[j]).abs() < 1e-6 * (1.0 + fd.abs()),
+                    "grad[{j}]"
+                );
+                assert!((fd - yw[j]).abs() < 1e-6 * (1.0 + fd.abs()), "(Jᵀλ)[{j}]");
+            }
+        }
+    }
+}

@@ -1,0 +1,679 @@
+//! The Newton (KKT) system of the direct method, solved by eliminating the
+//! per-node blocks and factoring the defect Schur complement.
+//!
+//! With y the free variables of the nodes, t = t̂_f and λ the defect
+//! multipliers, the system is
+//!
+//! ```text
+//! [ W    h_t   J_yᵀ ] [y]   [r_y]
+//! [ h_tᵀ h_tt  j_tᵀ ] [t] = [r_t]
+//! [ J_y  j_t   −δ_c ] [λ]   [r_λ]
+//! ```
+//!
+//! W (the Hessian of the Lagrangian plus the barrier terms) is block-diagonal
+//! per node, and J_y is D ⊗ I on the states plus one 8×10 block per
+//! collocation point. Each block W_k (at most 10×10, symmetric, possibly
+//! indefinite) is factored by Bunch–Kaufman and inverted; the reduced system
+//!
+//! ```text
+//! R = [ h_tt − h_tᵀ W⁻¹ h_t    gᵀ ]     g = j_t − J_y W⁻¹ h_t
+//!     [ g                    −S  ]     S = δ_c I + J_y W⁻¹ J_yᵀ
+//! ```
+//!
+//! (8N + 1 square, dense on the global mesh) is factored by faer's dense
+//! Bunch–Kaufman LBLᵀ. By Sylvester's law of inertia, In(K) = Σ_k In(W_k) +
+//! In(R): the factorization reports the inertia that the interior-point
+//! method checks (n positive and m negative eigenvalues for a descent
+//! direction), exactly as a sparse LDLᵀ of K would, without its fill-in.
+//!
+//! S's blocks are Σ_k D_ik D_jk Q_k + D_ik R_k + D_jk R_kᵀ + T_k (with
+//! Q = E M Eᵀ, R = E M Bᵀ, T = B M Bᵀ, M = W_k⁻¹, E the state selection), so
+//! forming it costs 64·N³ multiply-adds on the global mesh instead of a
+//! sparse factorization's fill-in. Everything is allocated in
+//! [`KktSolver::new`]; factoring and solving allocate nothing.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::lblt;
+use faer::perm::PermRef;
+use faer::{ColMut, ColRef, MatMut, MatRef, Par};
+
+use crate::nlp::{Nlp, NL, NS};
+
+/// The blocks of one Newton system (scaled units), set by the caller.
+#[derive(Debug, Clone)]
+pub struct KktMatrix {
+    /// Per node: W_k over the local slots (only the free ones are read).
+    pub w: Vec<[[f64; NL]; NL]>,
+    /// Per node: ∂²L/∂t̂∂ŵ_k.
+    pub h_t: Vec<[f64; NL]>,
+    pub h_tt: f64,
+    /// Per collocation point: the non-D part of ∂defect/∂ŵ_local, −(t_f/2)·∂F/∂ŵ.
+    pub b: Vec<[[f64; NL]; NS]>,
+    /// Per collocation point: ∂defect/∂t̂.
+    pub j_t: Vec<[f64; NS]>,
+    /// Dual regularization δ_c ≥ 0.
+    pub delta_c: f64,
+}
+
+impl KktMatrix {
+    /// A zero system for `nlp`.
+    pub fn zeros(nlp: &Nlp) -> Self {
+        KktMatrix {
+            w: vec![[[0.0; NL]; NL]; nlp.n + 1],
+            h_t: vec![[0.0; NL]; nlp.n + 1],
+            h_tt: 0.0,
+            b: vec![[[0.0; NL]; NS]; nlp.n],
+            j_t: vec![[0.0; NS]; nlp.n],
+            delta_c: 0.0,
+        }
+    }
+
+    /// y ← K·x over the full vector layout (fixed slots: zero), for the
+    /// residuals of iterative refinement and the tests.
+    pub fn multiply(&self, nlp: &Nlp, x_w: &[f64], x_l: &[f64], y_w: &mut [f64], y_l: &mut [f64]) {
+        let n = nlp.n;
+        let tf = nlp.tf_idx();
+        y_w.iter_mut().for_each(|v| *v = 0.0);
+        y_l.iter_mut().for_each(|v| *v = 0.0);
+        let free = |j: usize| !nlp.is_fixed(j);
+        for k in 0..=n {
+            for r in 0..NL {
+                let jr = nlp.idx(k, r);
+                if !free(jr) {
+                    continue;
+                }
+                let mut acc = self.h_t[k][r] * x_w[tf];
+                for c in 0..NL {
+                    let jc = nlp.idx(k, c);
+                    if free(jc) {
+                        acc += self.w[k][r][c] * x_w[jc];
+                    }
+                }
+                y_w[jr] += acc;
+                y_w[tf] += self.h_t[k][r] * x_w[jr];
+            }
+        }
+        y_w[tf] += self.h_tt * x_w[tf];
+        // Jacobian rows and their transposes.
+        for i in 0..n {
+            let (first, row) = nlp.mesh.d_row(i);
+            for c in 0..NS {
+                let r = i * NS + c;
+                let mut acc = self.j_t[i][c] * x_w[tf] - self.delta_c * x_l[r];
+                for (j, d) in row.iter().enumerate() {
+                    let col = nlp.idx(first + j, c);
+                    if free(col) {
+                        acc += d * x_w[col];
+                        y_w[col] += d * x_l[r];
+                    }
+                }
+                for s in 0..NL {
+                    let col = nlp.idx(i, s);
+                    if free(col) {
+                        acc += self.b[i][c][s] * x_w[col];
+                        y_w[col] += self.b[i][c][s] * x_l[r];
+                    }
+                }
+                y_w[tf] += self.j_t[i][c] * x_l[r];
+                y_l[r] = acc;
+            }
+        }
+    }
+}
+
+/// The inertia of a factored matrix: positive, negative and zero eigenvalues.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Inertia {
+    pub positive: usize,
+    pub negative: usize,
+    pub zero: usize,
+}
+
+impl std::ops::Add for Inertia {
+    type Output = Inertia;
+    fn add(self, o: Inertia) -> Inertia {
+        Inertia {
+            positive: self.positive + o.positive,
+            negative: self.negative + o.negative,
+            zero: self.zero + o.zero,
+        }
+    }
+}
+
+/// Pivots below this fraction of the largest are counted as zero. Only
+/// (numerically) exact singularity: the static regularization of the free
+/// linear variables puts entries of order 1e11 into S next to genuine
+/// pivots of order 1e-3, so a threshold near machine precision calls
+/// regular systems singular (measured: 1e-13 forced δ_w ≈ 1e-2 at every
+/// iteration near the paper's optimum, and 500 iterations without
+/// convergence instead of 31). Near-singular systems show up in the
+/// residual of iterative refinement instead.
+const ZERO_PIVOT: f64 = 1e-30;
+
+/// Inertia of B in an LBLᵀ factorization: `diag` and `sub` are B's diagonal
+/// and subdiagonal (a nonzero `sub[i]` pairs i and i + 1 in a 2×2 block).
+fn lblt_inertia(diag: impl Fn(usize) -> f64, sub: &[f64], n: usize) -> Inertia {
+    let scale = (0..n)
+        .map(|i| diag(i).abs().max(sub[i].abs()))
+        .fold(0.0f64, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let mut inertia = Inertia::default();
+    let mut i = 0;
+    while i < n {
+        if i + 1 < n && sub[i] != 0.0 {
+            let (a, b, c) = (diag(i), sub[i], diag(i + 1));
+            let det = a * c - b * b;
+            if det.abs() <= ZERO_PIVOT * scale * scale || !det.is_finite() {
+                inertia.zero += 2;
+            } else if det < 0.0 {
+                inertia.positive += 1;
+                inertia.negative += 1;
+            } else if a + c > 0.0 {
+                inertia.positive += 2;
+            } else {
+                inertia.negative += 2;
+            }
+            i += 2;
+        } else {
+            let d = diag(i);
+            if d.abs() <= ZERO_PIVOT * scale || !d.is_finite() {
+                inertia.zero += 1;
+            } else if d > 0.0 {
+                inertia.positive += 1;
+            } else {
+                inertia.negative += 1;
+            }
+            i += 1;
+        }
+    }
+    inertia
+}
+
+/// A dense symmetric matrix and its Bunch–Kaufman factors, with the storage
+/// to factor and solve in place.
+struct Lblt {
+    a: Vec<f64>,
+    sub: Vec<f64>,
+    perm: Vec<usize>,
+    perm_inv: Vec<usize>,
+    buf: MemBuffer,
+}
+
+impl Lblt {
+    fn new(dim: usize, rhs: usize) -> Self {
+        let req = lblt::factor::cholesky_in_place_scratch::<usize, f64>(
+            dim,
+            Par::Seq,
+            Default::default(),
+        )
+        .or(lblt::solve::solve_in_place_scratch::<usize, f64>(
+            dim,
+            rhs,
+            Par::Seq,
+        ));
+        Lblt {
+            a: vec![0.0; dim * dim],
+            sub: vec![0.0; dim],
+            perm: vec![0; dim],
+            perm_inv: vec![0; dim],
+            buf: MemBuffer::new(req),
+        }
+    }
+
+    /// Factor the lower triangle of `a` (column-major); returns the inertia.
+    fn factor(&mut self, n: usize) -> Inertia {
+        // faer writes the subdiagonal of 2×2 pivots only.
+        self.sub[..n].iter_mut().for_each(|v| *v = 0.0);
+        let am = MatMut::from_column_major_slice_mut(&mut self.a[..n * n], n, n);
+        let sub = ColMut::from_slice_mut(&mut self.sub[..n]).as_diagonal_mut();
+        lblt::factor::cholesky_in_place(
+            am,
+            sub,
+            &mut self.perm[..n],
+            &mut self.perm_inv[..n],
+            Par::Seq,
+            MemStack::new(&mut self.buf),
+            Default::default(),
+        );
+        let a = &self.a;
+        lblt_inertia(|i| a[i * n + i], &self.sub[..n], n)
+    }
+
+    /// Solve with the factors of an n×n matrix; `x` is n × k, column-major.
+    fn solve(&mut self, n: usize, x: &mut [f64], k: usize) {
+        let l = MatRef::from_column_major_slice(&self.a[..n * n], n, n);
+        let sub = ColRef::from_slice(&self.sub[..n]).as_diagonal();
+        let perm = PermRef::new_checked(&self.perm[..n], &self.perm_inv[..n], n);
+        let rhs = MatMut::from_column_major_slice_mut(x, n, k);
+        lblt::solve::solve_in_place(
+            l,
+            l.diagonal(),
+            sub,
+            perm,
+            rhs,
+            Par::Seq,
+            MemStack::new(&mut self.buf),
+        );
+    }
+}
+
+/// Storage and factors of the structured KKT solve.
+pub struct KktSolver {
+    n: usize,
+    /// Per node: the free local slots, in order.
+    slots: Vec<Vec<usize>>,
+    /// Per node: M_k = (W_k + δ I)⁻¹ over the free slots (row-major, NL×NL).
+    m_inv: Vec<[[f64; NL]; NL]>,
+    /// The node blocks' factorization (≤ NL square).
+    node: Lblt,
+    /// R, (8N + 1) square: the multipliers, then t̂_f.
+    reduced: Lblt,
+    /// Per-node work: ỹ.
+    y_tmp: Vec<[f64; NL]>,
+    rhs: Vec<f64>,
+}
+
+impl KktSolver {
+    pub fn new(nlp: &Nlp) -> Self {
+        let n = nlp.n;
+        let slots = (0..=n)
+            .map(|k| (0..NL).filter(|&s| !nlp.is_fixed(nlp.idx(k, s))).collect())
+            .collect();
+        KktSolver {
+            n,
+            slots,
+            m_inv: vec![[[0.0; NL]; NL]; n + 1],
+            node: Lblt::new(NL, NL),
+            reduced: Lblt::new(n * NS + 1, 1),
+            y_tmp: vec![[0.0; NL]; n + 1],
+            rhs: vec![0.0; n * NS + 1],
+        }
+    }
+
+    fn dim(&self) -> usize {
+        self.n * NS
+    }
+
+    /// Number of free variables of node k.
+    pub fn node_size(&self, k: usize) -> usize {
+        self.slots[k].len()
+    }
+
+    /// Factor W_k + δ I over node k's free slots and keep its inverse;
+    /// returns its inertia (any zero eigenvalue leaves the inverse unusable).
+    pub fn factor_node(&mut self, k: usize, w: &[[f64; NL]; NL], delta: f64) -> Inertia {
+        let sl = &self.slots[k];
+        let b = sl.len();
+        if b == 0 {
+            return Inertia::default();
+        }
+        let a = &mut self.node.a;
+        for q in 0..b {
+            for p in 0..b {
+                a[q * b + p] = w[sl[p]][sl[q]] + if p == q { delta } else { 0.0 };
+            }
+        }
+        let inertia = self.node.factor(b);
+        if inertia.zero > 0 {
+            return inertia;
+        }
+        let mut x = [0.0; NL * NL];
+        for p in 0..b {
+            x[p * b + p] = 1.0;
+        }
+        self.node.solve(b, &mut x[..b * b], b);
+        let m = &mut self.m_inv[k];
+        for p in 0..b {
+            for q in 0..b {
+                // Symmetrize: M is symmetric up to rounding.
+                m[p][q] = 0.5 * (x[q * b + p] + x[p * b + q]);
+            }
+        }
+        inertia
+    }
+
+    /// Form and factor R after every node is factored; returns its inertia.
+    pub fn factor_reduced(&mut self, nlp: &Nlp, kkt: &KktMatrix) -> Inertia {
+        let n = self.n;
+        let dim = self.dim();
+        let rd = dim + 1;
+        let tcol = dim;
+        // S accumulates into the lower triangle of R's leading block and is
+        // negated at the end; g goes into R's last row.
+        let r = &mut self.reduced.a;
+        r[..rd * rd].iter_mut().for_each(|v| *v = 0.0);
+        let mut g = std::mem::take(&mut self.rhs);
+        for (row, gv) in g[..dim].iter_mut().enumerate() {
+            *gv = kkt.j_t[row / NS][row % NS];
+        }
+        let mut a = kkt.h_tt;
+        for k in 0..=n {
+            let sl = &self.slots[k];
+            let b = sl.len();
+            let m = &self.m_inv[k];
+            let state = |p: usize| (sl[p] < NS).then_some(sl[p]);
+            let mut qm = [[0.0; NS]; NS];
+            let mut has_states = false;
+            for p in 0..b {
+                if let Some(c) = state(p) {
+                    has_states = true;
+                    for q in 0..b {
+                        if let Some(c2) = state(q) {
+                            qm[c][c2] = m[p][q];
+                        }
+                    }
+                }
+            }
+            let mut u = [0.0; NL];
+            for p in 0..b {
+                u[p] = (0..b).map(|q| m[p][q] * kkt.h_t[k][sl[q]]).sum();
+                a -= kkt.h_t[k][sl[p]] * u[p];
+            }
+            let col = &nlp.d_cols[k];
+            for &(i, d) in col {
+                for p in 0..b {
+                    if let Some(c) = state(p) {
+                        g[i * NS + c] -= d * u[p];
+                    }
+                }
+            }
+            if has_states {
+                for &(i, di) in col {
+                    for &(j, dj) in col {
+                        if j > i {
+                            continue;
+                        }
+                        let f = di * dj;
+                        for c2 in 0..NS {
+                            let base = (j * NS + c2) * rd + i * NS;
+                            for c in 0..NS {
+                                r[base + c] += f * qm[c][c2];
+                            }
+                        }
+                    }
+                }
+            }
+            if k == n {
+                continue;
+            }
+            let bk = &kkt.b[k];
+            let mut gm = [[0.0; NS]; NL];
+            for p in 0..b {
+                for row in 0..NS {
+                    gm[p][row] = (0..b).map(|q| m[p][q] * bk[row][sl[q]]).sum();
+                }
+            }
+            let mut rm = [[0.0; NS]; NS];
+            for p in 0..b {
+                if let Some(c) = state(p) {
+                    rm[c] = gm[p];
+                }
+            }
+            for row in 0..NS {
+                g[k * NS + row] -= (0..b).map(|p| bk[row][sl[p]] * u[p]).sum::<f64>();
+            }
+            for &(i, d) in col {
+                if i > k {
+                    for c2 in 0..NS {
+                        let base = (k * NS + c2) * rd + i * NS;
+                        for c in 0..NS {
+                            r[base + c] += d * rm[c][c2];
+                        }
+                    }
+                } else if i < k {
+                    for c in 0..NS {
+                        let base = (i * NS + c) * rd + k * NS;
+                        for c2 in 0..NS {
+                            r[base + c2] += d * rm[c][c2];
+                        }
+                    }
+                } else {
+                    for c2 in 0..NS {
+                        let base = (k * NS + c2) * rd + k * NS;
+                        for c in 0..NS {
+                            r[base + c] += d * (rm[c][c2] + rm[c2][c]);
+                        }
+                    }
+                }
+            }
+            // T = B M Bᵀ on the point's own diagonal block.
+            for c2 in 0..NS {
+                let base = (k * NS + c2) * rd + k * NS;
+                for c in c2..NS {
+                    r[base + c] += (0..b).map(|p| bk[c][sl[p]] * gm[p][c2]).sum::<f64>();
+                }
+            }
+        }
+        // R = [−S g; gᵀ a] (lower triangle).
+        for c in 0..dim {
+            for row in c..dim {
+                r[c * rd + row] = -r[c * rd + row];
+            }
+            r[c * rd + c] -= kkt.delta_c;
+            r[c * rd + tcol] = g[c];
+        }
+        r[tcol * rd + tcol] = a;
+        self.rhs = g;
+        self.reduced.factor(rd)
+    }
+
+    /// Solve K [x_w; x_l] = [r_w; r_l] with the current factors (full layout;
+    /// fixed slots of x_w are zero).
+    pub fn solve(
+        &mut self,
+        nlp: &Nlp,
+        kkt: &KktMatrix,
+        r_w: &[f64],
+        r_l: &[f64],
+        x_w: &mut [f64],
+        x_l: &mut [f64],
+    ) {
+        let n = self.n;
+        let dim = self.dim();
+        let tf = nlp.tf_idx();
+        // ỹ = M r_y, r̃_t = r_t − h_tᵀ ỹ, r̃_λ = r_λ − J_y ỹ.
+        let mut rt = r_w[tf];
+        for k in 0..=n {
+            let sl = &self.slots[k];
+            let m = &self.m_inv[k];
+            let mut y = [0.0; NL];
+            for p in 0..sl.len() {
+                y[p] = (0..sl.len())
+                    .map(|q| m[p][q] * r_w[nlp.idx(k, sl[q])])
+                    .sum();
+                rt -= kkt.h_t[k][sl[p]] * y[p];
+            }
+            self.y_tmp[k] = y;
+        }
+        let mut rl = std::mem::take(&mut self.rhs);
+        rl[..dim].copy_from_slice(r_l);
+        self.sub_jy(nlp, kkt, &mut rl[..dim]);
+        rl[dim] = rt;
+        self.reduced.solve(dim + 1, &mut rl, 1);
+        let t = rl[dim];
+        x_l.copy_from_slice(&rl[..dim]);
+        self.rhs = rl;
+        // y_k = M_k (r_y − h_t t − J_kᵀ λ).
+        x_w.iter_mut().for_each(|v| *v = 0.0);
+        x_w[tf] = t;
+        for k in 0..=n {
+            let sl = &self.slots[k];
+            let mut r = [0.0; NL];
+            for (p, &s) in sl.iter().enumerate() {
+                r[p] = r_w[nlp.idx(k, s)] - kkt.h_t[k][s] * t;
+            }
+            for &(i, d) in &nlp.d_cols[k] {
+                for (p, &s) in sl.iter().enumerate() {
+                    if s < NS {
+                        r[p] -= d * x_l[i * NS + s];
+                    }
+                }
+            }
+            if k < n {
+                for (p, &s) in sl.iter().enumerate() {
+                    r[p] -= (0..NS)
+                        .map(|c| kkt.b[k][c][s] * x_l[k * NS + c])
+                        .sum::<f64>();
+                }
+            }
+            let m = &self.m_inv[k];
+            for (p, &s) in sl.iter().enumerate() {
+                x_w[nlp.idx(k, s)] = (0..sl.len()).map(|q| m[p][q] * r[q]).sum();
+            }
+        }
+    }
+
+    /// r ← r − J_y ỹ (ỹ in `y_tmp`, compressed per node).
+    fn sub_jy(&self, nlp: &Nlp, kkt: &KktMatrix, r: &mut [f64]) {
+        for k in 0..=self.n {
+            let sl = &self.slots[k];
+            let y = &self.y_tmp[k];
+            for &(i, d) in &nlp.d_cols[k] {
+                for (p, &s) in sl.iter().enumerate() {
+                    if s < NS {
+                        r[i * NS + s] -= d * y[p];
+                    }
+                }
+            }
+            if k < self.n {
+                for c in 0..NS {
+                    r[k * NS + c] -= (0..sl.len())
+                        .map(|p| kkt.b[k][c][sl[p]] * y[p])
+                        .sum::<f64>();
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Scenario;
+    use nalgebra::{DMatrix, DVector};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A random system on `nlp`'s structure, with node blocks of both signs.
+    fn random_system(nlp: &Nlp, rng: &mut ChaCha8Rng) -> KktMatrix {
+        let mut k = KktMatrix::zeros(nlp);
+        for w in &mut k.w {
+            let a: [[f64; NL]; NL] =
+                std::array::from_fn(|_| std::array::from_fn(|_| rng.gen_range(-1.0..1.0)));
+            for r in 0..NL {
+                for c in 0..NL {
+                    // AᵀA − I/2: mostly positive, some negative eigenvalues.
+                    w[r][c] = (0..NL).map(|q| a[r][q] * a[c][q]).sum::<f64>()
+                        - if r == c { 0.5 } else { 0.0 };
+                }
+            }
+        }
+        for h in &mut k.h_t {
+            *h = std::array::from_fn(|_| rng.gen_range(-0.3..0.3));
+        }
+        k.h_tt = 5.0;
+        for b in &mut k.b {
+            *b = std::array::from_fn(|_| std::array::from_fn(|_| rng.gen_range(-1.0..1.0)));
+        }
+        for j in &mut k.j_t {
+            *j = std::array::from_fn(|_| rng.gen_range(-1.0..1.0));
+        }
+        k.delta_c = 1e-9;
+        k
+    }
+
+    /// The structured solve equals a dense LU solve of the same matrix, on the
+    /// global mesh and on an hp mesh.
+    #[test]
+    fn structured_solve_matches_a_dense_solve() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for (nodes, intervals) in [(6, 1), (9, 3)] {
+            let mut s = Scenario::paper();
+            s.discretization.nodes = nodes;
+            s.discretization.intervals = intervals;
+            let nlp = Nlp::new(&s);
+            let kkt = random_system(&nlp, &mut rng);
+            let mut solver = KktSolver::new(&nlp);
+            let mut inertia = Inertia::default();
+            for k in 0..=nlp.n {
+                inertia = inertia + solver.factor_node(k, &kkt.w[k], 0.0);
+            }
+            inertia = inertia + solver.factor_reduced(&nlp, &kkt);
+            let (nv, nc) = (nlp.n_var(), nlp.n_con());
+            // Dense K over the free variables and the multipliers, column by column.
+            let free: Vec<usize> = (0..nv).filter(|&j| !nlp.is_fixed(j)).collect();
+            let dim = free.len() + nc;
+            let mut dense = DMatrix::zeros(dim, dim);
+            let (mut yw, mut yl) = (vec![0.0; nv], vec![0.0; nc]);
+            for col in 0..dim {
+                let (mut xw, mut xl) = (vec![0.0; nv], vec![0.0; nc]);
+                if col < free.len() {
+                    xw[free[col]] = 1.0;
+                } else {
+                    xl[col - free.len()] = 1.0;
+                }
+                kkt.multiply(&nlp, &xw, &xl, &mut yw, &mut yl);
+                for (r, &j) in free.iter().enumerate() {
+                    dense[(r, col)] = yw[j];
+                }
+                for r in 0..nc {
+                    dense[(free.len() + r, col)] = yl[r];
+                }
+            }
+            assert!(
+                (&dense - dense.transpose()).amax() < 1e-12,
+                "K is symmetric"
+            );
+            // The inertia agrees with the eigenvalues of the dense matrix.
+            let eig = dense.clone().symmetric_eigenvalues();
+            let want_inertia = Inertia {
+                positive: eig.iter().filter(|&&e| e > 0.0).count(),
+                negative: eig.iter().filter(|&&e| e < 0.0).count(),
+                zero: 0,
+            };
+            assert_eq!(inertia, want_inertia, "{nodes}/{intervals}");
+            let rhs = DVector::from_fn(dim, |_, _| rng.gen_range(-1.0..1.0));
+            let want = dense.clone().lu().solve(&rhs).unwrap();
+            let mut rw = vec![0.0; nv];
+            for (r, &j) in free.iter().enumerate() {
+                rw[j] = rhs[r];
+            }
+            let rl: Vec<f64> = (0..nc).map(|r| rhs[free.len() + r]).collect();
+            let (mut xw, mut xl) = (vec![0.0; nv], vec![0.0; nc]);
+            solver.solve(&nlp, &kkt, &rw, &rl, &mut xw, &mut xl);
+            let scale = want.amax();
+            for (r, &j) in free.iter().enumerate() {
+                assert!(
+                    (xw[j] - want[r]).abs() < 1e-8 * scale,
+                    "{nodes}/{intervals} w {j}"
+                );
+            }
+            for r in 0..nc {
+                assert!((xl[r] - want[free.len() + r]).abs() < 1e-8 * scale, "λ {r}");
+            }
+        }
+    }
+
+    #[test]
+    fn node_inertia_counts_negative_and_zero_eigenvalues() {
+        let s = Scenario::paper();
+        let nlp = Nlp::new(&s);
+        let mut solver = KktSolver::new(&nlp);
+        let mut w = [[0.0; NL]; NL];
+        for (r, row) in w.iter_mut().enumerate() {
+            row[r] = 1.0;
+        }
+        // A 2×2 block [[0, 1], [1, 0]] (eigenvalues ±1) and one −0.5.
+        w[3][3] = 0.0;
+        w[4][4] = 0.0;
+        w[3][4] = 1.0;
+        w[4][3] = 1.0;
+        w[6][6] = -0.5;
+        let i = solver.factor_node(2, &w, 0.0);
+        assert_eq!((i.positive, i.negative, i.zero), (8, 2, 0));
+        let i = solver.factor_node(2, &w, 1.5);
+        assert_eq!((i.positive, i.negative, i.zero), (10, 0, 0));
+        w[6][6] = 0.0;
+        assert_eq!(solver.factor_node(2, &w, 0.0).zero, 1);
+    }
+}

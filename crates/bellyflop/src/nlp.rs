@@ -1,0 +1,571 @@
+//! Problem P2 (Eq. 8–10) on the LGR mesh as one nonlinear program, for the
+//! direct method ([`crate::direct`]).
+//!
+//! This is the transcription that the CasADi + IPOPT reference
+//! (`bench/reference/nlp_reference.py`) solves, with the ground bound
+//! z ≥ z_f added: states (x, z, Vx, Vz, θ, w, m, δ) at the N + 1 nodes,
+//! controls (T, χ) at the N collocation points, and t_f. Every constraint is
+//! either a collocation defect (Eq. 24) or a simple bound, so an interior
+//! point method needs barriers on variables only.
+//!
+//! Variables are scaled to order one (`value = offset + scale·ŵ`, the scales of
+//! [`Scaling`]); each defect row is divided by the scale of its state. The
+//! full vector has [`NL`] slots per node (node N's control slots are fixed at
+//! zero) and t̂_f last; fixed values (the boundary conditions, T when
+//! T_min = T_max) keep their slots with `lo == hi`.
+//!
+//! Derivatives are exact: num-dual's second-order dual numbers over the six
+//! inputs that enter f nonlinearly (Vx, Vz, θ, m, δ, T); the linear entries
+//! θ̇ = w and δ̇ = χ are added by hand.
+
+use num_dual::Dual2SVec64;
+
+use crate::dynamics::{self, Model};
+use crate::mesh::Mesh;
+use crate::scenario::{Formulation, Scenario};
+use crate::transcription::Scaling;
+
+/// States of P2 at a node: x, z, Vx, Vz, θ, w, m, δ.
+pub const NS: usize = 8;
+/// Controls of P2: T, χ.
+pub const NC: usize = 2;
+/// Local slots per node: the states, then the controls.
+pub const NL: usize = NS + NC;
+
+/// Slot indices of a node's local vector.
+pub mod slot {
+    pub const X: usize = 0;
+    pub const Z: usize = 1;
+    pub const VX: usize = 2;
+    pub const VZ: usize = 3;
+    pub const THETA: usize = 4;
+    pub const W: usize = 5;
+    pub const M: usize = 6;
+    pub const DELTA: usize = 7;
+    pub const T: usize = 8;
+    pub const CHI: usize = 9;
+}
+
+/// The slots that enter f nonlinearly, in the order of the dual directions.
+const ACTIVE: [usize; 6] = [
+    slot::VX,
+    slot::VZ,
+    slot::THETA,
+    slot::M,
+    slot::DELTA,
+    slot::T,
+];
+
+/// Bounds on t_f [s], as in the IPOPT reference.
+pub const TF_BOUNDS_S: (f64, f64) = (1.0, 100.0);
+
+/// Derivatives of the dynamics at one collocation point, in scaled units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointDerivatives {
+    /// F_c = f_c/scale_c (scaled state rates per unit time).
+    pub f: [f64; NS],
+    /// ∂F_c/∂ŵ_s over the local slots.
+    pub jac: [[f64; NL]; NS],
+    /// Σ_c λ_c ∇²F_c over the local slots (symmetric).
+    pub hess: [[f64; NL]; NL],
+}
+
+/// P2 on a mesh: scaling, bounds, defects and their derivatives.
+#[derive(Debug, Clone)]
+pub struct Nlp {
+    pub model: Model,
+    pub mesh: Mesh,
+    /// Collocation points N.
+    pub n: usize,
+    /// value = offset + scale·ŵ per local slot.
+    pub offset: [f64; NL],
+    pub scale: [f64; NL],
+    pub tf_scale: f64,
+    /// Scaled bounds of the full vector (±∞ where free; equal where fixed).
+    pub lo: Vec<f64>,
+    pub hi: Vec<f64>,
+    /// Initial state (all of P2's) and terminal x, z, Vx, Vz, θ, w, physical.
+    pub x0: [f64; NS],
+    pub xf: [f64; 6],
+    /// For each node k: the collocation points i with D_ik ≠ 0 and D_ik.
+    pub d_cols: Vec<Vec<(usize, f64)>>,
+}
+
+impl Nlp {
+    /// The transcription of a validated scenario on its mesh, with the
+    /// ground bound z ≥ z_f at every node.
+    pub fn new(s: &Scenario) -> Self {
+        let d = &s.discretization;
+        let mesh = Mesh::uniform(d.nodes, d.intervals);
+        let model = Model::new(&s.vehicle, &s.environment);
+        let sc = Scaling::new(s, &model, Formulation::Exact);
+        let (i, t) = (&s.initial, &s.terminal);
+        let m0 = i.mass_kg;
+        let mut offset = [0.0; NL];
+        offset[slot::M] = m0;
+        let mut scale = [1.0; NL];
+        scale[..6].copy_from_slice(&sc.x_scale[..6]);
+        scale[slot::M] = m0 - model.dry_mass_kg;
+        scale[slot::DELTA] = model.max_gimbal_rad;
+        scale[slot::T] = model.max_thrust_n;
+        scale[slot::CHI] = model.max_gimbal_rate_radps;
+        let x0 = [
+            i.x_m,
+            i.z_m,
+            i.vx_mps,
+            i.vz_mps,
+            i.theta_deg.to_radians(),
+            i.pitch_rate_degps.to_radians(),
+            m0,
+            i.gimbal_deg.to_radians(),
+        ];
+        let xf = [
+            t.x_m,
+            t.z_m,
+            t.vx_mps,
+            t.vz_mps,
+            t.theta_deg.to_radians(),
+            t.pitch_rate_degps.to_radians(),
+        ];
+        let n = d.nodes;
+        let mut d_cols = vec![Vec::new(); n + 1];
+        for row in 0..n {
+            let (first, entries) = mesh.d_row(row);
+            for (j, &v) in entries.iter().enumerate() {
+                if v != 0.0 {
+                    d_cols[first + j].push((row, v));
+                }
+            }
+        }
+        let mut nlp = Nlp {
+            model,
+            mesh,
+            n,
+            offset,
+            scale,
+            tf_scale: sc.tf_scale,
+            lo: vec![],
+            hi: vec![],
+            x0,
+            xf,
+            d_cols,
+        };
+        nlp.set_bounds(t.z_m);
+        nlp
+    }
+
+    /// Index of slot `s` of node `k` in the full vector.
+    #[inline]
+    pub fn idx(&self, k: usize, s: usize) -> usize {
+        k * NL + s
+    }
+
+    /// Index of t̂_f.
+    #[inline]
+    pub fn tf_idx(&self) -> usize {
+        (self.n + 1) * NL
+    }
+
+    /// Length of the full vector.
+    #[inline]
+    pub fn n_var(&self) -> usize {
+        self.tf_idx() + 1
+    }
+
+    /// Number of equality constraints (defects), N·8.
+    #[inline]
+    pub fn n_con(&self) -> usize {
+        self.n * NS
+    }
+
+    fn scaled(&self, s: usize, v: f64) -> f64 {
+        (v - self.offset[s]) / self.scale[s]
+    }
+
+    /// Physical value of slot `s` from its scaled value.
+    #[inline]
+    pub fn physical(&self, s: usize, w: f64) -> f64 {
+        self.offset[s] + self.scale[s] * w
+    }
+
+    fn set_bounds(&mut self, z_ground_m: f64) {
+        let (n, m) = (self.n, &self.model);
+        let mut lo = vec![f64::NEG_INFINITY; self.n_var()];
+        let mut hi = vec![f64::INFINITY; self.n_var()];
+        let set = |lo: &mut Vec<f64>, hi: &mut Vec<f64>, k: usize, s: usize, a: f64, b: f64| {
+            let j = k * NL + s;
+            lo[j] = (a - self.offset[s]) / self.scale[s];
+            hi[j] = (b - self.offset[s]) / self.scale[s];
+        };
+        for k in 0..=n {
+            if k == 0 {
+                for s in 0..NS {
+                    set(&mut lo, &mut hi, k, s, self.x0[s], self.x0[s]);
+                }
+            } else {
+                set(&mut lo, &mut hi, k, slot::Z, z_ground_m, f64::INFINITY);
+                set(
+                    &mut lo,
+                    &mut hi,
+                    k,
+                    slot::M,
+                    m.dry_mass_kg,
+                    self.x0[slot::M],
+                );
+                set(
+                    &mut lo,
+                    &mut hi,
+                    k,
+                    slot::DELTA,
+                    -m.max_gimbal_rad,
+                    m.max_gimbal_rad,
+                );
+            }
+            if k == n {
+                for s in 0..6 {
+                    set(&mut lo, &mut hi, k, s, self.xf[s], self.xf[s]);
+                }
+                set(&mut lo, &mut hi, k, slot::T, 0.0, 0.0);
+                set(&mut lo, &mut hi, k, slot::CHI, 0.0, 0.0);
+            } else {
+                set(&mut lo, &mut hi, k, slot::T, m.min_thrust_n, m.max_thrust_n);
+                let c = m.max_gimbal_rate_radps;
+                set(&mut lo, &mut hi, k, slot::CHI, -c, c);
+            }
+        }
+        let tf = self.tf_idx();
+        lo[tf] = TF_BOUNDS_S.0 / self.tf_scale;
+        hi[tf] = TF_BOUNDS_S.1 / self.tf_scale;
+        self.lo = lo;
+        self.hi = hi;
+    }
+
+    /// Whether variable `j` is fixed (`lo == hi`).
+    #[inline]
+    pub fn is_fixed(&self, j: usize) -> bool {
+        self.lo[j] == self.hi[j]
+    }
+
+    /// The straight-line guess of the reference: states linear in τ from the
+    /// initial to the terminal state (mass to `final_mass_kg`, δ to 0),
+    /// T = (T_min + T_max)/2, χ = 0, t_f = `tf_s`. Scaled.
+    pub fn straight_line(&self, tf_s: f64, final_mass_kg: f64) -> Vec<f64> {
+        let mut w = vec![0.0; self.n_var()];
+        let mut end = [0.0; NS];
+        end[..6].copy_from_slice(&self.xf);
+        end[slot::M] = final_mass_kg;
+        let thrust = 0.5 * (self.model.min_thrust_n + self.model.max_thrust_n);
+        for (k, &tau) in self.mesh.nodes.iter().enumerate() {
+            let a = 0.5 * (tau + 1.0);
+            for s in 0..NS {
+                w[self.idx(k, s)] = self.scaled(s, self.x0[s] + a * (end[s] - self.x0[s]));
+            }
+            if k < self.n {
+                w[self.idx(k, slot::T)] = self.scaled(slot::T, thrust);
+            }
+        }
+        w[self.tf_idx()] = tf_s / self.tf_scale;
+        w
+    }
+
+    /// Physical t_f [s] of a scaled vector.
+    #[inline]
+    pub fn tf_s(&self, w: &[f64]) -> f64 {
+        self.tf_scale * w[self.tf_idx()]
+    }
+
+    /// Objective −ŵ_m(t_f): maximize the final mass (Eq. 6).
+    pub fn objective(&self, w: &[f64]) -> f64 {
+        -w[self.idx(self.n, slot::M)]
+    }
+
+    /// Index of the one nonzero of ∇f (its value is −1).
+    pub fn objective_gradient_index(&self) -> usize {
+        self.idx(self.n, slot::M)
+    }
+
+    fn physical_node(&self, w: &[f64], k: usize) -> [f64; NL] {
+        std::array::from_fn(|s| self.physical(s, w[self.idx(k, s)]))
+    }
+
+    /// Scaled rates F = f/scale at collocation point `i`.
+    pub fn rates(&self, w: &[f64], i: usize) -> [f64; NS] {
+        let p = self.physical_node(w, i);
+        let st: [f64; NS] = std::array::from_fn(|s| p[s]);
+        let f = dynamics::rhs_augmented(&self.model, &st, p[slot::T], p[slot::CHI]);
+        std::array::from_fn(|c| f[c] / self.scale[c])
+    }
+
+    /// Collocation defects (Eq. 24), scaled: Σ_j D_ij X̂_j − (t_f/2)·F_i,
+    /// point-major (`out[i·8 + c]`).
+    pub fn defects(&self, w: &[f64], out: &mut [f64]) {
+        let half_tf = 0.5 * self.tf_s(w);
+        for i in 0..self.n {
+            let f = self.rates(w, i);
+            let (first, row) = self.mesh.d_row(i);
+            for c in 0..NS {
+                let dx: f64 = row
+                    .iter()
+                    .enumerate()
+                    .map(|(j, d)| d * w[self.idx(first + j, c)])
+                    .sum();
+                out[i * NS + c] = dx - half_tf * f[c];
+            }
+        }
+    }
+
+    /// F, ∂F/∂ŵ and Σ_c λ_c ∇²F_c at collocation point `i` (λ: 8 weights).
+    pub fn point_derivatives(&self, w: &[f64], i: usize, lambda: &[f64]) -> PointDerivatives {
+        type D2 = Dual2SVec64<6>;
+        let p = self.physical_node(w, i);
+        let active = |s: usize| ACTIVE.iter().position(|&a| a == s);
+        let var = |s: usize| match active(s) {
+            Some(a) => D2::from_re(p[s]).derivative(a),
+            None => D2::from_re(p[s]),
+        };
+        let st: [D2; NS] = std::array::from_fn(var);
+        let f = dynamics::rhs_augmented(&self.model, &st, var(slot::T), var(slot::CHI));
+        let mut out = PointDerivatives {
+            f: [0.0; NS],
+            jac: [[0.0; NL]; NS],
+            hess: [[0.0; NL]; NL],
+        };
+        for (c, fc) in f.iter().enumerate() {
+            let inv = 1.0 / self.scale[c];
+            out.f[c] = fc.re * inv;
+            if let Some(g) = &fc.v1.0 {
+                for (a, &s) in ACTIVE.iter().enumerate() {
+                    out.jac[c][s] = g[a] * self.scale[s] * inv;
+                }
+            }
+            if let Some(h) = &fc.v2.0 {
+                let wc = lambda[c] * inv;
+                for (a, &s) in ACTIVE.iter().enumerate() {
+                    for (b, &r) in ACTIVE.iter().enumerate().take(a + 1) {
+                        // Symmetric to the last bit: the KKT blocks rely on it.
+                        let v = wc * 0.5 * (h[(a, b)] + h[(b, a)]) * self.scale[s] * self.scale[r];
+                        out.hess[s][r] += v;
+                        if r != s {
+                            out.hess[r][s] += v;
+                        }
+                    }
+                }
+            }
+        }
+        // The linear rates θ̇ = w and δ̇ = χ.
+        out.jac[slot::THETA][slot::W] = self.scale[slot::W] / self.scale[slot::THETA];
+        out.jac[slot::DELTA][slot::CHI] = self.scale[slot::CHI] / self.scale[slot::DELTA];
+        out
+    }
+
+    /// Jᵀλ of the defects (full-vector gradient), added into `out`.
+    pub fn add_jt_lambda(
+        &self,
+        w: &[f64],
+        jac: &[[[f64; NL]; NS]],
+        lambda: &[f64],
+        out: &mut [f64],
+    ) {
+        let half_tf = 0.5 * self.tf_s(w);
+        let tf = self.tf_idx();
+        for i in 0..self.n {
+            let l = &lambda[i * NS..(i + 1) * NS];
+            let (first, row) = self.mesh.d_row(i);
+            for (j, d) in row.iter().enumerate() {
+                for c in 0..NS {
+                    out[self.idx(first + j, c)] += d * l[c];
+                }
+            }
+            let f = self.rates(w, i);
+            for c in 0..NS {
+                for s in 0..NL {
+                    out[self.idx(i, s)] -= half_tf * jac[i][c][s] * l[c];
+                }
+                out[tf] -= 0.5 * self.tf_scale * f[c] * l[c];
+            }
+        }
+    }
+
+    /// The scaled vector as a trajectory of the exact LCvx formulation
+    /// (ω = ln m, σ = T/m, χ), which [`crate::solution::Solution`] reports.
+    pub fn to_trajectory(&self, w: &[f64]) -> crate::transcription::Trajectory {
+        use crate::dynamics::{ix, NU_MAX, NX};
+        let x: Vec<[f64; NX]> = (0..=self.n)
+            .map(|k| {
+                let p = self.physical_node(w, k);
+                let mut x = [0.0; NX];
+                x[..6].copy_from_slice(&p[..6]);
+                x[ix::OMEGA] = p[slot::M].ln();
+                x[ix::DELTA] = p[slot::DELTA];
+                x
+            })
+            .collect();
+        let u: Vec<[f64; NU_MAX]> = (0..self.n)
+            .map(|i| {
+                let p = self.physical_node(w, i);
+                let mut u = [0.0; NU_MAX];
+                u[0] = p[slot::T] / p[slot::M];
+                u[1] = p[slot::CHI];
+                u
+            })
+            .collect();
+        crate::transcription::Trajectory {
+            x,
+            u,
+            tf_s: self.tf_s(w),
+        }
+    }
+
+    /// The scaled vector of an exact-formulation trajectory (the inverse of
+    /// [`Nlp::to_trajectory`]), for warm starts from an earlier plan.
+    pub fn from_trajectory(&self, t: &crate::transcription::Trajectory) -> Vec<f64> {
+        use crate::dynamics::ix;
+        let mut w = vec![0.0; self.n_var()];
+        for k in 0..=self.n {
+            let x = &t.x[k];
+            let m = x[ix::OMEGA].exp();
+            for s in 0..6 {
+                w[self.idx(k, s)] = self.scaled(s, x[s]);
+            }
+            w[self.idx(k, slot::M)] = self.scaled(slot::M, m);
+            w[self.idx(k, slot::DELTA)] = self.scaled(slot::DELTA, x[ix::DELTA]);
+            if k < self.n {
+                w[self.idx(k, slot::T)] = self.scaled(slot::T, t.u[k][0] * m);
+                w[self.idx(k, slot::CHI)] = self.scaled(slot::CHI, t.u[k][1]);
+            }
+        }
+        w[self.tf_idx()] = t.tf_s / self.tf_scale;
+        w
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn nlp() -> Nlp {
+        let mut s = Scenario::paper();
+        s.discretization.nodes = 7;
+        Nlp::new(&s)
+    }
+
+    /// A generic interior point: the straight line, perturbed.
+    fn point(nlp: &Nlp) -> Vec<f64> {
+        let mut w = nlp.straight_line(11.0, 114_000.0);
+        for (j, v) in w.iter_mut().enumerate() {
+            if !nlp.is_fixed(j) {
+                *v += 0.05 * ((j as f64) * 0.7).sin();
+            }
+        }
+        w
+    }
+
+    #[test]
+    fn jacobian_matches_central_differences() {
+        let nlp = nlp();
+        let w = point(&nlp);
+        let lambda = [0.0; NS];
+        for i in 0..nlp.n {
+            let d = nlp.point_derivatives(&w, i, &lambda);
+            for (a, b) in d.f.iter().zip(nlp.rates(&w, i)) {
+                assert!((a - b).abs() <= 1e-15 * (1.0 + b.abs()));
+            }
+            for s in 0..NL {
+                let h = 1e-6;
+                let (mut wp, mut wm) = (w.clone(), w.clone());
+                wp[nlp.idx(i, s)] += h;
+                wm[nlp.idx(i, s)] -= h;
+                let (fp, fm) = (nlp.rates(&wp, i), nlp.rates(&wm, i));
+                for c in 0..NS {
+                    let fd = (fp[c] - fm[c]) / (2.0 * h);
+                    assert!(
+                        (fd - d.jac[c][s]).abs() <= 1e-6 * (1.0 + fd.abs()),
+                        "point {i}: dF{c}/dw{s}: AD {} FD {fd}",
+                        d.jac[c][s]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn hessian_matches_differences_of_the_jacobian() {
+        let nlp = nlp();
+        let w = point(&nlp);
+        let lambda = [0.3, -1.2, 0.8, 2.1, -0.4, 1.7, -0.9, 0.6];
+        for i in 0..nlp.n {
+            let d = nlp.point_derivatives(&w, i, &lambda);
+            for r in 0..NL {
+                for s in 0..NL {
+                    assert_eq!(d.hess[r][s], d.hess[s][r], "symmetric");
+                }
+                let h = 1e-5;
+                let (mut wp, mut wm) = (w.clone(), w.clone());
+                wp[nlp.idx(i, r)] += h;
+                wm[nlp.idx(i, r)] -= h;
+                let (jp, jm) = (
+                    nlp.point_derivatives(&wp, i, &lambda).jac,
+                    nlp.point_derivatives(&wm, i, &lambda).jac,
+                );
+                for s in 0..NL {
+                    let fd: f64 = (0..NS)
+                        .map(|c| lambda[c] * (jp[c][s] - jm[c][s]) / (2.0 * h))
+                        .sum();
+                    assert!(
+                        (fd - d.hess[r][s]).abs() <= 1e-5 * (1.0 + fd.abs()),
+                        "point {i}: H[{r}][{s}]: AD {} FD {fd}",
+                        d.hess[r][s]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn defects_vanish_on_a_polynomial_trajectory_of_the_dynamics() {
+        // Free fall without drag: x, z quadratic in t, which the LGR rule
+        // differentiates exactly, so every defect is zero to rounding.
+        let mut s = Scenario::paper();
+        s.vehicle.drag_coefficient_kgpm = 0.0;
+        s.discretization.nodes = 6;
+        let nlp = Nlp::new(&s);
+        let tf = 10.0;
+        let g = nlp.model.g0_mps2;
+        let mut w = vec![0.0; nlp.n_var()];
+        for (k, &tau) in nlp.mesh.nodes.iter().enumerate() {
+            let t = (tau + 1.0) * tf / 2.0;
+            let p = [
+                3.0 * t,
+                500.0 - 0.5 * g * t * t,
+                3.0,
+                -g * t,
+                0.2,
+                0.0,
+                110_000.0,
+                0.0,
+                0.0,
+                0.0,
+            ];
+            for (sl, v) in p.iter().enumerate() {
+                w[nlp.idx(k, sl)] = nlp.scaled(sl, *v);
+            }
+        }
+        w[nlp.tf_idx()] = tf / nlp.tf_scale;
+        let mut d = vec![0.0; nlp.n_con()];
+        nlp.defects(&w, &mut d);
+        assert!(d.iter().all(|v| v.abs() < 1e-12), "{d:?}");
+    }
+
+    #[test]
+    fn trajectory_round_trip() {
+        let nlp = nlp();
+        let w = point(&nlp);
+        let back = nlp.from_trajectory(&nlp.to_trajectory(&w));
+        for (j, (a, b)) in w.iter().zip(&back).enumerate() {
+            let node_n_control = j >= nlp.idx(nlp.n, NS) && j < nlp.tf_idx();
+            if !node_n_control {
+                assert!((a - b).abs() < 1e-12, "{j}: {a} {b}");
+            }
+        }
+    }
+}
