@@ -446,3 +446,78 @@ fn every_numeric_field_rejects_non_finite_and_absurd_values() {
         }
     }
 }
+
+/// A gimbal limit that is 0 or subnormal in radians is bad input (issue 18:
+/// 5e-324 deg passed the degree range, became 0 rad and panicked in the
+/// subproblem's bounds).
+#[test]
+fn gimbal_limits_that_vanish_in_radians_are_out_of_range() {
+    for (from, key) in [
+        ("max_gimbal_deg = 20.0", "vehicle.max_gimbal_deg"),
+        (
+            "max_gimbal_rate_degps = 20.0",
+            "vehicle.max_gimbal_rate_degps",
+        ),
+    ] {
+        let name = from.split(' ').next().unwrap();
+        for value in ["5e-324", "1e-300", "0.09"] {
+            let (field, v, allowed, display) =
+                out_of_range(&paper_with(from, &format!("{name} = {value}")));
+            assert_eq!(field, key, "{display}");
+            assert_eq!(v, value.parse::<f64>().unwrap());
+            assert!(allowed.starts_with("[0.1, "), "{display}");
+        }
+    }
+}
+
+/// The smallest accepted gimbal limits give a subproblem that assembles and
+/// solves without a panic.
+#[test]
+fn smallest_gimbal_limits_assemble_and_solve_one_subproblem() {
+    let text = paper_with("max_gimbal_deg = 20.0", "max_gimbal_deg = 0.1").replacen(
+        "max_gimbal_rate_degps = 20.0",
+        "max_gimbal_rate_degps = 0.1",
+        1,
+    );
+    let s = Scenario::from_toml_str(&text).expect("0.1 deg and 0.1 deg/s are accepted");
+    let tr = bellyflop::transcription::Transcription::new(&s);
+    let guess = bellyflop::scvx::straight_line(&tr, 12.0, 110_000.0);
+    let data = tr.assemble(&guess, 0.3, 0.0);
+    let mut conic = bellyflop::conic::ConicSolver::new();
+    // Solved or not, it returns.
+    let _ = tr.solve_with(&mut conic, &data);
+}
+
+/// A virtual-control weight at which Clarabel always fails (1e12 exited 6 on
+/// the paper's case) is out of range; the documented bounds are accepted.
+#[test]
+fn unworkable_virtual_control_weights_are_out_of_range() {
+    for value in ["1e12", "1e7", "0.5"] {
+        let text = format!("{PAPER_TOML}virtual_control_weight = {value}\n");
+        let (field, _, allowed, display) = out_of_range(&text);
+        assert_eq!(field, "solver.virtual_control_weight", "{display}");
+        assert_eq!(allowed, "[1, 1e5]");
+    }
+    for value in ["1.0", "1e5"] {
+        let text = format!("{PAPER_TOML}virtual_control_weight = {value}\n");
+        assert!(Scenario::from_toml_str(&text).is_ok(), "{value}");
+    }
+}
+
+/// The centre of mass at an end of the body (cg_m = length_m gave a `solved`
+/// plan whose re-flown path ended 1.1 km below the pad) is inconsistent with
+/// the model's pitch inertia; the bound is l·(1 − √(2/3))/2 from either end.
+#[test]
+fn centre_of_mass_near_an_end_is_inconsistent() {
+    for cg in ["50.0", "46.0", "4.5", "0.1"] {
+        let (field, value, reason, display) =
+            inconsistent(&paper_with("cg_m = 20.0", &format!("cg_m = {cg}")));
+        assert_eq!(field, "vehicle.cg_m", "{display}");
+        assert_eq!(value, cg.parse::<f64>().unwrap());
+        assert!(reason.contains("[4.5876, 45.4124] m"), "{display}");
+    }
+    for cg in ["4.6", "25.0", "45.4"] {
+        let text = paper_with("cg_m = 20.0", &format!("cg_m = {cg}"));
+        assert!(Scenario::from_toml_str(&text).is_ok(), "cg_m = {cg}");
+    }
+}
