@@ -88,6 +88,12 @@ pub const INFEASIBLE_VIRTUAL_CONTROL: f64 = 1e-4;
 /// 1.5 µm under the pad `non_physical`.
 pub const GROUND_TOLERANCE_M: f64 = 1e-3;
 
+/// How far a `solved` thrust may leave [T_min, T_max], as a fraction of
+/// T_max (2.2 N on the paper's case). The bounds are linearized in ω (Eq. 28),
+/// which costs T_min·Δω²/2 below T_min, and held with penalized buffers up
+/// to the virtual-control tolerance: measured 4e-5 N with T_min = T_max.
+pub const THRUST_TOLERANCE_FRAC: f64 = 1e-6;
+
 /// Consecutive creeping steps (see `solve_from_with`) after which the trust
 /// region shrinks.
 const CREEP_WINDOW: usize = 5;
@@ -455,6 +461,12 @@ pub fn solve_from_with(
             message = format!(
                 "the trajectory passes {:.3e} m below the landing altitude (more than the {GROUND_TOLERANCE_M} m tolerance)",
                 -checks.min_altitude_margin_m
+            );
+        } else if checks.thrust_bound_violation_n > THRUST_TOLERANCE_FRAC * tr.model.max_thrust_n {
+            status = Status::NonPhysical;
+            message = format!(
+                "the thrust leaves [T_min, T_max] by {:.3e} N (more than {THRUST_TOLERANCE_FRAC:.0e} of T_max)",
+                checks.thrust_bound_violation_n
             );
         } else if checks.thrust_backwards() {
             status = Status::NonPhysical;

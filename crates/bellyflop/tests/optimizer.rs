@@ -492,3 +492,29 @@ fn micrometre_dip_below_the_pad_is_solved() {
     assert!(sol.checks.min_altitude_margin_m >= -bellyflop::scvx::GROUND_TOLERANCE_M);
     assert_feasible(&sol, "cp_m = 45");
 }
+
+/// With T_min = T_max every reported thrust, the final node's included, is
+/// within the bounds, and the checks cover all of them (issue 18: the final
+/// thrust_n was 2,209,399 N against T_min = 2,210,000 N, unchecked).
+#[test]
+fn every_reported_thrust_is_within_its_bounds() {
+    let sol = solve_paper(|s| s.vehicle.min_thrust_n = s.vehicle.max_thrust_n);
+    assert_feasible(&sol, "T_min = T_max");
+    let t_max = Scenario::paper().vehicle.max_thrust_n;
+    let tol = bellyflop::scvx::THRUST_TOLERANCE_FRAC * t_max;
+    let worst = sol
+        .thrust_n
+        .iter()
+        .fold(0.0f64, |m, &t| m.max((t - t_max).abs()));
+    assert_eq!(sol.thrust_n.len(), sol.nodes + 1);
+    assert!(
+        worst <= tol,
+        "thrust {worst} N off T_max: {:?}",
+        sol.thrust_n
+    );
+    assert!(
+        (sol.checks.thrust_bound_violation_n - worst).abs() <= 1e-9 * t_max,
+        "checks {} N, reported {worst} N",
+        sol.checks.thrust_bound_violation_n
+    );
+}
