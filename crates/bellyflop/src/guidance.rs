@@ -509,6 +509,13 @@ pub fn fly(
     let mut x0 = lcvx(&measured0);
     x0[ix::DELTA] = x0[ix::DELTA].clamp(-gimbal_max_rad, gimbal_max_rad);
     s0.initial = initial_state(&x0);
+    s0.discretization.final_mass_guess_kg = crate::replan::final_mass_guess(
+        None,
+        0.0,
+        s0.initial.mass_kg,
+        s0.vehicle.dry_mass_kg,
+        s0.discretization.final_mass_guess_kg,
+    );
     let mut planner = Planner::new(scenario.clone());
     let (mut first_plan, mut nominal) = (None, false);
     if s0.validate().is_ok() {
@@ -1084,6 +1091,51 @@ mod tests {
         // offset (docs/guidance.md), within the 1-m/s touchdown speed.
         assert!(td.speed_mps <= 1.0, "{td:?}");
         assert!(td.pitch_error_deg.abs() < 1.0, "{td:?}");
+    }
+
+    /// Re-plans derive their final-mass guess from the measured mass and the
+    /// previous plan (issue 18: with the scenario's fixed 119,000-kg guess
+    /// and m0 = 120,000 kg, 15 of 21 re-plans failed as `bad_state` once the
+    /// vehicle was lighter than the guess).
+    #[test]
+    fn replans_survive_a_final_mass_guess_near_the_initial_mass() {
+        let mut s = Scenario::paper();
+        s.discretization.final_mass_guess_kg = 119_000.0;
+        let f = nominal().fly(&s, 1, 0, false).unwrap();
+        assert_eq!(f.replans.len(), 21, "{:?}", f.replans);
+        let flown = f.count(ReplanOutcome::Accepted) + f.count(ReplanOutcome::Usable);
+        assert_eq!(flown, 21, "{:?}", f.replans);
+        assert!(f.replans.iter().all(|r| r.status != "bad_state"));
+    }
+
+    /// The guess is the mass less the plan's remaining burn, within
+    /// [m_dry, m]; without a plan the fallback, within the same bounds.
+    #[test]
+    fn final_mass_guess_follows_the_plan_and_stays_in_bounds() {
+        use crate::replan::final_mass_guess;
+        let mut p = Planner::new(Scenario::paper());
+        p.cold(&mut Silent);
+        let plan = p.plan.expect("the paper's case solves");
+        let n = plan.mesh.n;
+        let m0 = plan.trajectory.x[0][ix::OMEGA].exp();
+        let mf = plan.trajectory.x[n][ix::OMEGA].exp();
+        let g = final_mass_guess(Some(&plan), 0.0, 118_000.0, 85_000.0, 119_000.0);
+        assert!((g - (118_000.0 - (m0 - mf))).abs() < 1e-6, "{g}");
+        // At the end of the plan nothing is left to burn.
+        let g = final_mass_guess(Some(&plan), plan.tf_s(), 112_000.0, 85_000.0, 0.0);
+        assert!((g - 112_000.0).abs() < 1e-6, "{g}");
+        assert_eq!(
+            final_mass_guess(Some(&plan), 0.0, 86_000.0, 85_000.0, 0.0),
+            85_000.0
+        );
+        assert_eq!(
+            final_mass_guess(None, 0.0, 100_000.0, 85_000.0, 119_000.0),
+            100_000.0
+        );
+        assert_eq!(
+            final_mass_guess(None, 0.0, 100_000.0, 85_000.0, 1.0),
+            85_000.0
+        );
     }
 
     /// The same (seed, run) flies the same flight.
