@@ -13,6 +13,8 @@ use std::process::ExitCode;
 use bellyflop::Scenario;
 use serde_json::Value;
 
+use crate::EXIT_BAD_INPUT;
+
 /// Arguments of `bellyflop init`.
 #[derive(clap::Args)]
 pub struct InitArgs {
@@ -23,8 +25,8 @@ pub struct InitArgs {
     force: bool,
 }
 
-/// Run `bellyflop init`: exit 0 on success, 2 if FILE exists (without
-/// `--force`), 1 if it cannot be written.
+/// Run `bellyflop init`: exit 0 on success, 2 (bad input) if FILE exists
+/// (without `--force`) or its directory does not, 1 if it cannot be written.
 pub fn run(args: &InitArgs) -> ExitCode {
     let text = template(&Scenario::paper());
     let Some(path) = &args.file else {
@@ -36,7 +38,17 @@ pub fn run(args: &InitArgs) -> ExitCode {
             "error: {} exists; pass --force to overwrite it",
             path.display()
         );
-        return ExitCode::from(2);
+        return ExitCode::from(EXIT_BAD_INPUT);
+    }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            eprintln!(
+                "error: cannot write {}: the directory {} does not exist (create it first)",
+                path.display(),
+                dir.display()
+            );
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
     }
     match std::fs::write(path, text) {
         Ok(()) => {

@@ -964,14 +964,17 @@ pub struct SimConfig {
 impl SimConfig {
     /// Parse and validate a configuration.
     pub fn from_toml_str(text: &str) -> Result<Self, InputError> {
-        let c: SimConfig = crate::error::parse_toml(text)?;
+        let c: SimConfig = crate::error::parse_toml(crate::error::FileKind::GuidanceConfig, text)?;
         c.validate()?;
         Ok(c)
     }
 
     /// Read, parse and validate a configuration file.
     pub fn from_file(path: &std::path::Path) -> Result<Self, InputError> {
-        Self::from_toml_str(&crate::error::read_text(path)?)
+        Self::from_toml_str(&crate::error::read_text(
+            crate::error::FileKind::GuidanceConfig,
+            path,
+        )?)
     }
 
     pub fn validate(&self) -> Result<(), InputError> {
@@ -1167,5 +1170,10 @@ mod tests {
         assert!(e.to_string().contains("guidance.replan_rate_hz"), "{e}");
         let e = SimConfig::from_toml_str("[guidance]\nbogus = 1\n").unwrap_err();
         assert!(e.to_string().contains("bogus"), "{e}");
+        // A configuration's TOML error calls it one, not a scenario.
+        assert!(
+            e.to_string().starts_with("guidance config TOML, line 2"),
+            "{e}"
+        );
     }
 }

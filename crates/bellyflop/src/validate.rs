@@ -208,15 +208,11 @@ pub fn scenario(s: &Scenario) -> Result<(), InputError> {
     consistency(s)
 }
 
-/// The name labels outputs, so it must contain a non-blank character. The
-/// reported value is the length of the trimmed name.
+/// The name labels outputs, so it must contain a non-blank character.
 fn name(name: &str) -> Result<(), InputError> {
-    let trimmed = name.trim();
-    if trimmed.is_empty() {
-        return Err(InputError::OutOfRange {
+    if name.trim().is_empty() {
+        return Err(InputError::Empty {
             field: "name".into(),
-            value: trimmed.chars().count() as f64,
-            allowed: "a non-empty string (at least 1 non-blank character)".into(),
         });
     }
     Ok(())

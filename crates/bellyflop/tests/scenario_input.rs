@@ -68,6 +68,7 @@ fn toml_error(text: &str) -> (usize, usize, String, String) {
                 line,
                 column,
                 message,
+                ..
             } = e
             else {
                 unreachable!()
@@ -373,11 +374,24 @@ fn terminal_altitude_below_ground_is_out_of_range() {
     assert_eq!(allowed, "[0, 1e5] m");
 }
 
+/// An empty or blank name says so (issue 18: it read "name = 0 is out of
+/// range").
 #[test]
 fn empty_name_is_rejected() {
-    let (field, _, _, display) = out_of_range(&paper_with("name = \"paper\"", "name = \"  \""));
-    assert_eq!(field, "name");
-    assert!(display.contains("non-empty"), "{display}");
+    for name in ["\"\"", "\"  \""] {
+        let e = Scenario::from_toml_str(&paper_with("name = \"paper\"", &format!("name = {name}")))
+            .unwrap_err();
+        assert_eq!(
+            e,
+            InputError::Empty {
+                field: "name".into()
+            }
+        );
+        assert_eq!(
+            e.to_string(),
+            "name must be non-empty (at least one non-blank character)"
+        );
+    }
 }
 
 /// Every numeric field in paper.toml, plus every solver setting, given
