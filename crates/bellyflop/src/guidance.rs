@@ -73,7 +73,8 @@ use crate::replan::{initial_state, Plan, Planner};
 use crate::scenario::Scenario;
 use crate::scvx::Silent;
 use crate::sim::{
-    Command, Dispersions, Outcome, Plant, PlantConfig, PlantState, SaturationCounts, StepResult,
+    Command, Dispersions, Outcome, Plant, PlantConfig, PlantState, RunOutcome, SaturationCounts,
+    StepResult, TouchdownLimits,
 };
 use crate::solution::{Solution, Status};
 
@@ -951,14 +952,16 @@ fn fall_without_plan(
 }
 
 /// Everything a closed-loop run needs besides the scenario, as one TOML file
-/// with the tables `[dispersions]`, `[guidance]` and `[plant]`; every field
-/// is optional and takes its documented default.
+/// with the tables `[dispersions]`, `[guidance]`, `[plant]` and
+/// `[touchdown]`; every field is optional and takes its documented default.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
     pub dispersions: Dispersions,
     pub guidance: GuidanceConfig,
     pub plant: PlantConfig,
+    /// How touchdowns are judged (`landed`, `hard_landing`, `crash`).
+    pub touchdown: TouchdownLimits,
 }
 
 impl SimConfig {
@@ -980,7 +983,13 @@ impl SimConfig {
     pub fn validate(&self) -> Result<(), InputError> {
         self.dispersions.validate()?;
         self.guidance.validate()?;
-        self.plant.validate()
+        self.plant.validate()?;
+        self.touchdown.validate()
+    }
+
+    /// How `flight` ended, its touchdown judged by [`SimConfig::touchdown`].
+    pub fn outcome(&self, flight: &Flight) -> RunOutcome {
+        RunOutcome::of(&flight.outcome, &self.touchdown)
     }
 
     /// Fly run `run_index` of campaign `seed` with this configuration.
