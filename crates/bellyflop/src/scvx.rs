@@ -153,6 +153,11 @@ const STATE_NAMES: [&str; NX] = [
     "delta (nozzle angle)",
 ];
 
+/// Below this many collocation points an `infeasible` answer says only that
+/// no trajectory was found on the mesh: the paper's case is `infeasible` at
+/// N = 4 (the smallest accepted) and solved from N = 5 on.
+pub const COARSE_MESH_NODES: usize = 10;
+
 /// Explain why a stationary point with virtual control is infeasible.
 fn infeasibility_reason(tr: &Transcription, t: &Trajectory, vc: f64) -> String {
     let d = tr.defects(t);
@@ -164,12 +169,19 @@ fn infeasibility_reason(tr: &Transcription, t: &Trajectory, vc: f64) -> String {
             }
         }
     }
+    let n = tr.layout.n;
+    let claim = if n < COARSE_MESH_NODES {
+        format!(
+            "no trajectory was found on this mesh of N = {n} collocation points, which may be too coarse: try more nodes (discretization.nodes or --nodes, e.g. 20)"
+        )
+    } else {
+        "no trajectory meets the dynamics and boundary conditions".to_string()
+    };
     let mut reason = format!(
-        "no trajectory meets the dynamics and boundary conditions: SCvx settled with virtual control {vc:.2e} (scaled); the largest violation is in the {} equation at t = {:.2} s",
+        "{claim}: SCvx settled with virtual control {vc:.2e} (scaled); the largest violation is in the {} equation at t = {:.2} s",
         STATE_NAMES[comp],
         tr.mesh.time_s(node, t.tf_s)
     );
-    let n = tr.layout.n;
     let mf = t.x[n][ix::OMEGA].exp();
     if mf <= tr.model.dry_mass_kg * (1.0 + 1e-6) {
         reason += &format!(

@@ -518,3 +518,28 @@ fn every_reported_thrust_is_within_its_bounds() {
         sol.checks.thrust_bound_violation_n
     );
 }
+
+/// On a coarse mesh `infeasible` says that no trajectory was found on this
+/// mesh and to try more nodes (issue 18: the paper's case at N = 4, the
+/// smallest accepted, blamed the problem; it solves from N = 5 on). On a
+/// fine mesh the message keeps its claim about the problem.
+#[test]
+fn coarse_mesh_infeasibility_suggests_more_nodes() {
+    let sol = solve_paper(|s| s.discretization.nodes = 4);
+    assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
+    assert!(
+        sol.message
+            .starts_with("no trajectory was found on this mesh of N = 4")
+            && sol.message.contains("try more nodes"),
+        "{}",
+        sol.message
+    );
+    let fine = solve_paper(|s| s.initial.z_m = 100.0);
+    assert_eq!(fine.status, Status::Infeasible, "{}", fine.message);
+    assert!(!fine.message.contains("more nodes"), "{}", fine.message);
+    assert!(
+        fine.message.starts_with("no trajectory meets"),
+        "{}",
+        fine.message
+    );
+}
