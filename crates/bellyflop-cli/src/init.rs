@@ -120,8 +120,8 @@ const fn closed_open(lo: f64, hi: f64) -> Allowed {
     real(lo, hi, false, true)
 }
 
-const MASS: Allowed = open_closed(0.0, 1e7);
-const LENGTH: Allowed = open_closed(0.0, 1000.0);
+const MASS: Allowed = closed(1.0, 1e7);
+const LENGTH: Allowed = closed(0.01, 1000.0);
 const POS_X: Allowed = closed(-1e5, 1e5);
 const POS_Z: Allowed = closed(0.0, 1e5);
 const SPEED: Allowed = closed(-1e4, 1e4);
@@ -159,10 +159,10 @@ pub const DOCS: &[Doc] = &[
         "Centre of mass l_cg, measured along the body from the engine gimbal. Between 0.092*length_m and 0.908*length_m: the pitch inertia (Eq. 22) is that of a body spread over its whole length."),
     doc!("vehicle", "cp_m", "m", LENGTH,
         "Centre of pressure l_cp, measured like l_cg. At most length_m."),
-    doc!("vehicle", "max_thrust_n", "N", open_closed(0.0, 1e9), "Maximum thrust T_max."),
+    doc!("vehicle", "max_thrust_n", "N", closed(1.0, 1e9), "Maximum thrust T_max."),
     doc!("vehicle", "min_thrust_n", "N", closed(0.0, 1e9),
         "Minimum thrust T_min: the engine cannot throttle below it (Eq. 5). At most max_thrust_n."),
-    doc!("vehicle", "isp_s", "s", open_closed(0.0, 1000.0), "Specific impulse I_sp."),
+    doc!("vehicle", "isp_s", "s", closed(1.0, 1000.0), "Specific impulse I_sp."),
     doc!("vehicle", "max_gimbal_deg", "deg", closed_open(0.1, 90.0),
         "Maximum nozzle (gimbal) angle delta_max."),
     doc!("vehicle", "max_gimbal_rate_degps", "deg/s", closed(0.1, 360.0),
@@ -170,7 +170,7 @@ pub const DOCS: &[Doc] = &[
     doc!("vehicle", "drag_coefficient_kgpm", "kg/m", closed(0.0, 1e5),
         "Lumped drag coefficient C_LD = rho*c_D*A/2 (Eq. 2); 0 is vacuum. The paper omits it; its case uses 1.2*m0*g0/85^2 = 195.52."),
     // Environment.
-    doc!("environment", "g0_mps2", "m/s^2", open_closed(0.0, 100.0),
+    doc!("environment", "g0_mps2", "m/s^2", closed(1e-3, 100.0),
         "Gravitational acceleration g0, also used in I_sp*g0."),
     doc!("environment", "wind_x_mps", "m/s", closed(-100.0, 100.0),
         "Steady horizontal wind W, positive along +x: drag acts on the air-relative velocity (Vx - W, Vz). 0 is the paper's still air."),

@@ -54,19 +54,29 @@ pub enum InputError {
     #[error("{field} must be non-empty (at least one non-blank character)")]
     Empty { field: String },
     /// A number is outside its allowed range (NaN and infinities included).
-    #[error("{field} = {value} is out of range: allowed {allowed}")]
+    #[error("{field} = {} is out of range: allowed {allowed}", number(*.value))]
     OutOfRange {
         field: String,
         value: f64,
         allowed: String,
     },
     /// Two fields contradict each other (e.g. T_min > T_max).
-    #[error("{field} = {value} is inconsistent: {reason}")]
+    #[error("{field} = {} is inconsistent: {reason}", number(*.value))]
     Inconsistent {
         field: String,
         value: f64,
         reason: String,
     },
+}
+
+/// A number as Rust prints it, but with an exponent when tiny or huge
+/// (`5e-324`, not 324 digits).
+fn number(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && (x.abs() < 1e-5 || x.abs() >= 1e16) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
 }
 
 /// 1-based line and column (in characters) of the end of `before`.
@@ -134,6 +144,32 @@ pub(crate) fn read_text(kind: FileKind, path: &std::path::Path) -> Result<String
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tiny_and_huge_values_print_with_an_exponent() {
+        let e = |value| InputError::OutOfRange {
+            field: "f".into(),
+            value,
+            allowed: "[1, 2]".into(),
+        };
+        assert_eq!(
+            e(5e-324).to_string(),
+            "f = 5e-324 is out of range: allowed [1, 2]"
+        );
+        assert_eq!(
+            e(1e300).to_string(),
+            "f = 1e300 is out of range: allowed [1, 2]"
+        );
+        assert_eq!(
+            e(-85000.0).to_string(),
+            "f = -85000 is out of range: allowed [1, 2]"
+        );
+        assert_eq!(e(0.0).to_string(), "f = 0 is out of range: allowed [1, 2]");
+        assert_eq!(
+            e(f64::NAN).to_string(),
+            "f = NaN is out of range: allowed [1, 2]"
+        );
+    }
 
     /// A non-UTF-8 file names the file, the byte and its line and column.
     #[test]

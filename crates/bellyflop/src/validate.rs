@@ -87,21 +87,25 @@ impl Range {
 // vehicles well beyond Super Heavy (≈ 5e6 kg fuelled, ≈ 7.5e7 N thrust).
 // ---------------------------------------------------------------------------
 
-/// Masses (dry mass, initial mass, final-mass guess): positive, and at most
+/// Masses (dry mass, initial mass, final-mass guess): at least 1 kg (a
+/// subnormal mass, 5e-324 kg, broke the subproblem: exit 6), and at most
 /// 1e7 kg, about twice the fuelled mass of the largest rocket ever flown.
-const MASS: Range = Range::open_closed(0.0, 1e7, "kg");
-/// Body length, radius and the cg/cp stations: positive (a zero lever arm or
-/// radius makes the pitch dynamics degenerate), at most 1 km.
-const LENGTH: Range = Range::open_closed(0.0, 1000.0, "m");
-/// Maximum thrust: positive (a zero T_max leaves no control at all), at most
-/// 1e9 N, over ten times any engine cluster built.
-const MAX_THRUST: Range = Range::open_closed(0.0, 1e9, "N");
+const MASS: Range = Range::closed(1.0, 1e7, "kg");
+/// Body length, radius and the cg/cp stations: at least 1 cm (a zero lever
+/// arm or radius makes the pitch dynamics degenerate; 1e-300 m broke the
+/// subproblem), at most 1 km.
+const LENGTH: Range = Range::closed(0.01, 1000.0, "m");
+/// Maximum thrust: at least 1 N (a zero T_max leaves no control at all, and
+/// 5e-324 N broke the subproblem), at most 1e9 N, over ten times any engine
+/// cluster built.
+const MAX_THRUST: Range = Range::closed(1.0, 1e9, "N");
 /// Minimum thrust: may be 0 (a deep-throttling engine, no lower bound in
 /// Eq. 5), same upper bound as T_max.
 const MIN_THRUST: Range = Range::closed(0.0, 1e9, "N");
-/// Specific impulse: positive (the mass-flow equation ṁ = −T/(I_sp·g0)
-/// divides by it), at most 1000 s, above any chemical engine (≈ 465 s).
-const ISP: Range = Range::open_closed(0.0, 1000.0, "s");
+/// Specific impulse: at least 1 s (the mass-flow equation ṁ = −T/(I_sp·g0)
+/// divides by it, and below 1e-6 s it broke the subproblem; cold gas is
+/// ≈ 70 s), at most 1000 s, above any chemical engine (≈ 465 s).
+const ISP: Range = Range::closed(1.0, 1000.0, "s");
 /// Maximum gimbal angle δ_max: at least 0.1° (a smaller limit cannot steer,
 /// and a subnormal one became 0 rad and broke the subproblem's bounds) and
 /// below 90°, where the nozzle would point sideways.
@@ -117,8 +121,9 @@ const DRAG: Range = Range::closed(0.0, 1e5, "kg/m");
 // Environment.
 // ---------------------------------------------------------------------------
 
-/// g0: positive (I_sp·g0 is a divisor), at most 100 m/s² (Jupiter ≈ 25).
-const G0: Range = Range::open_closed(0.0, 100.0, "m/s^2");
+/// g0: at least 1e-3 m/s² (I_sp·g0 is a divisor, and below 1e-6 it broke the
+/// subproblem; a 10-km asteroid has ≈ 3e-3), at most 100 m/s² (Jupiter ≈ 25).
+const G0: Range = Range::closed(1e-3, 100.0, "m/s^2");
 /// Steady wind: |W| ≤ 100 m/s, above any wind a vehicle lands in.
 const WIND: Range = Range::closed(-100.0, 100.0, "m/s");
 

@@ -196,10 +196,10 @@ fn negative_mass_is_out_of_range() {
     ));
     assert_eq!(field, "vehicle.dry_mass_kg");
     assert_eq!(value, -85_000.0);
-    assert_eq!(allowed, "(0, 1e7] kg");
+    assert_eq!(allowed, "[1, 1e7] kg");
     assert_eq!(
         display,
-        "vehicle.dry_mass_kg = -85000 is out of range: allowed (0, 1e7] kg"
+        "vehicle.dry_mass_kg = -85000 is out of range: allowed [1, 1e7] kg"
     );
 
     let (field, value, _, display) =
@@ -254,10 +254,10 @@ fn nan_is_out_of_range() {
         out_of_range(&paper_with("isp_s = 330.0", "isp_s = nan"));
     assert_eq!(field, "vehicle.isp_s");
     assert!(value.is_nan());
-    assert_eq!(allowed, "(0, 1000] s");
+    assert_eq!(allowed, "[1, 1000] s");
     assert_eq!(
         display,
-        "vehicle.isp_s = NaN is out of range: allowed (0, 1000] s"
+        "vehicle.isp_s = NaN is out of range: allowed [1, 1000] s"
     );
 }
 
@@ -269,9 +269,9 @@ fn infinity_is_out_of_range() {
     ));
     assert_eq!(field, "vehicle.max_thrust_n");
     assert_eq!(value, f64::INFINITY);
-    assert_eq!(allowed, "(0, 1e9] N");
+    assert_eq!(allowed, "[1, 1e9] N");
     assert!(display.contains("vehicle.max_thrust_n = inf"), "{display}");
-    assert!(display.contains("(0, 1e9] N"), "{display}");
+    assert!(display.contains("[1, 1e9] N"), "{display}");
 
     // -inf in a field whose range is symmetric.
     let (field, value, allowed, _) = out_of_range(&paper_with("vz_mps = -85.0", "vz_mps = -inf"));
@@ -312,10 +312,10 @@ fn zero_isp_is_out_of_range() {
         out_of_range(&paper_with("isp_s = 330.0", "isp_s = 0.0"));
     assert_eq!(field, "vehicle.isp_s");
     assert_eq!(value, 0.0);
-    assert_eq!(allowed, "(0, 1000] s");
+    assert_eq!(allowed, "[1, 1000] s");
     assert_eq!(
         display,
-        "vehicle.isp_s = 0 is out of range: allowed (0, 1000] s"
+        "vehicle.isp_s = 0 is out of range: allowed [1, 1000] s"
     );
 }
 
@@ -533,5 +533,40 @@ fn centre_of_mass_near_an_end_is_inconsistent() {
     for cg in ["4.6", "25.0", "45.4"] {
         let text = paper_with("cg_m = 20.0", &format!("cg_m = {cg}"));
         assert!(Scenario::from_toml_str(&text).is_ok(), "cg_m = {cg}");
+    }
+}
+
+/// Values that are positive but vanishing (subnormal, or far below any
+/// vehicle) made the subproblem fail (exit 6); they are bad input now.
+#[test]
+fn vanishing_physical_values_are_out_of_range() {
+    let cases = [
+        (
+            "dry_mass_kg = 85000.0",
+            "vehicle.dry_mass_kg",
+            "[1, 1e7] kg",
+        ),
+        (
+            "max_thrust_n = 2210000.0",
+            "vehicle.max_thrust_n",
+            "[1, 1e9] N",
+        ),
+        ("isp_s = 330.0", "vehicle.isp_s", "[1, 1000] s"),
+        (
+            "g0_mps2 = 9.81",
+            "environment.g0_mps2",
+            "[0.001, 100] m/s^2",
+        ),
+        ("radius_m = 4.5", "vehicle.radius_m", "[0.01, 1000] m"),
+        ("length_m = 50.0", "vehicle.length_m", "[0.01, 1000] m"),
+    ];
+    for (from, field, range) in cases {
+        let key = from.split(' ').next().unwrap();
+        for value in ["5e-324", "1e-8"] {
+            let (f, _, allowed, display) =
+                out_of_range(&paper_with(from, &format!("{key} = {value}")));
+            assert_eq!(f, field, "{display}");
+            assert_eq!(allowed, range, "{display}");
+        }
     }
 }
