@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use bellyflop::guidance::{Flight, ReplanOutcome};
 use plotters::prelude::*;
 
-use crate::montecarlo::{RunRow, SPEC_PITCH_DEG, SPEC_POSITION_M, SPEC_SPEED_MPS};
+use crate::montecarlo::RunRow;
 use crate::output::OutputError;
 use crate::plot::{fonts, plot_error, Res, FONT};
 
@@ -128,7 +128,9 @@ pub fn campaign(dir: &Path, rows: &[RunRow], name: &str) -> Result<Vec<PathBuf>,
     ) -> Res<DB> {
         root.fill(&WHITE)?;
         let (left, right) = root.split_horizontally(root.dim_in_pixel().0 / 2);
-        let landed: Vec<&RunRow> = rows.iter().filter(|r| r.outcome == "touchdown").collect();
+        let landed: Vec<&RunRow> = rows.iter().filter(|r| r.touchdown()).collect();
+        // The landing spec the runs were judged by (the same for all).
+        let spec = rows.first().map(|r| r.limits).unwrap_or_default();
         // (area, x label, y label, x requirement, y requirement, the point)
         type Panel<'a, A> = (&'a A, &'a str, &'a str, f64, f64, fn(&RunRow) -> (f64, f64));
         let panels: [Panel<DrawingArea<DB, _>>; 2] = [
@@ -136,16 +138,16 @@ pub fn campaign(dir: &Path, rows: &[RunRow], name: &str) -> Result<Vec<PathBuf>,
                 &left,
                 "position error x - x_f [m]",
                 "vertical speed [m/s]",
-                SPEC_POSITION_M,
-                SPEC_SPEED_MPS,
+                spec.landed_position_m,
+                spec.landed_speed_mps,
                 |r| (r.x_error_m, r.vertical_velocity_mps.abs()),
             ),
             (
                 &right,
                 "pitch error [deg]",
                 "horizontal speed [m/s]",
-                SPEC_PITCH_DEG,
-                SPEC_SPEED_MPS,
+                spec.landed_pitch_deg,
+                spec.landed_speed_mps,
                 |r| (r.pitch_error_deg, r.horizontal_velocity_mps.abs()),
             ),
         ];

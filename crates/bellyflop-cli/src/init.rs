@@ -13,6 +13,8 @@ use std::process::ExitCode;
 use bellyflop::Scenario;
 use serde_json::Value;
 
+use crate::EXIT_BAD_INPUT;
+
 /// Arguments of `bellyflop init`.
 #[derive(clap::Args)]
 pub struct InitArgs {
@@ -23,8 +25,8 @@ pub struct InitArgs {
     force: bool,
 }
 
-/// Run `bellyflop init`: exit 0 on success, 2 if FILE exists (without
-/// `--force`), 1 if it cannot be written.
+/// Run `bellyflop init`: exit 0 on success, 2 (bad input) if FILE exists
+/// (without `--force`) or its directory does not, 1 if it cannot be written.
 pub fn run(args: &InitArgs) -> ExitCode {
     let text = template(&Scenario::paper());
     let Some(path) = &args.file else {
@@ -36,7 +38,17 @@ pub fn run(args: &InitArgs) -> ExitCode {
             "error: {} exists; pass --force to overwrite it",
             path.display()
         );
-        return ExitCode::from(2);
+        return ExitCode::from(EXIT_BAD_INPUT);
+    }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            eprintln!(
+                "error: cannot write {}: the directory {} does not exist (create it first)",
+                path.display(),
+                dir.display()
+            );
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
     }
     match std::fs::write(path, text) {
         Ok(()) => {
@@ -108,8 +120,8 @@ const fn closed_open(lo: f64, hi: f64) -> Allowed {
     real(lo, hi, false, true)
 }
 
-const MASS: Allowed = open_closed(0.0, 1e7);
-const LENGTH: Allowed = open_closed(0.0, 1000.0);
+const MASS: Allowed = closed(1.0, 1e7);
+const LENGTH: Allowed = closed(0.01, 1000.0);
 const POS_X: Allowed = closed(-1e5, 1e5);
 const POS_Z: Allowed = closed(0.0, 1e5);
 const SPEED: Allowed = closed(-1e4, 1e4);
@@ -144,21 +156,21 @@ pub const DOCS: &[Doc] = &[
     doc!("vehicle", "length_m", "m", LENGTH, "Body length l_s."),
     doc!("vehicle", "radius_m", "m", LENGTH, "Body radius r_s."),
     doc!("vehicle", "cg_m", "m", LENGTH,
-        "Centre of mass l_cg, measured along the body from the engine gimbal. At most length_m."),
+        "Centre of mass l_cg, measured along the body from the engine gimbal. Between 0.092*length_m and 0.908*length_m: the pitch inertia (Eq. 22) is that of a body spread over its whole length."),
     doc!("vehicle", "cp_m", "m", LENGTH,
         "Centre of pressure l_cp, measured like l_cg. At most length_m."),
-    doc!("vehicle", "max_thrust_n", "N", open_closed(0.0, 1e9), "Maximum thrust T_max."),
+    doc!("vehicle", "max_thrust_n", "N", closed(1.0, 1e9), "Maximum thrust T_max."),
     doc!("vehicle", "min_thrust_n", "N", closed(0.0, 1e9),
         "Minimum thrust T_min: the engine cannot throttle below it (Eq. 5). At most max_thrust_n."),
-    doc!("vehicle", "isp_s", "s", open_closed(0.0, 1000.0), "Specific impulse I_sp."),
-    doc!("vehicle", "max_gimbal_deg", "deg", open(0.0, 90.0),
+    doc!("vehicle", "isp_s", "s", closed(1.0, 1000.0), "Specific impulse I_sp."),
+    doc!("vehicle", "max_gimbal_deg", "deg", closed_open(0.1, 90.0),
         "Maximum nozzle (gimbal) angle delta_max."),
-    doc!("vehicle", "max_gimbal_rate_degps", "deg/s", open_closed(0.0, 360.0),
+    doc!("vehicle", "max_gimbal_rate_degps", "deg/s", closed(0.1, 360.0),
         "Maximum nozzle angle rate chi_max."),
     doc!("vehicle", "drag_coefficient_kgpm", "kg/m", closed(0.0, 1e5),
         "Lumped drag coefficient C_LD = rho*c_D*A/2 (Eq. 2); 0 is vacuum. The paper omits it; its case uses 1.2*m0*g0/85^2 = 195.52."),
     // Environment.
-    doc!("environment", "g0_mps2", "m/s^2", open_closed(0.0, 100.0),
+    doc!("environment", "g0_mps2", "m/s^2", closed(1e-3, 100.0),
         "Gravitational acceleration g0, also used in I_sp*g0."),
     doc!("environment", "wind_x_mps", "m/s", closed(-100.0, 100.0),
         "Steady horizontal wind W, positive along +x: drag acts on the air-relative velocity (Vx - W, Vz). 0 is the paper's still air."),
@@ -203,8 +215,8 @@ pub const DOCS: &[Doc] = &[
         "Convergence: largest nonlinear collocation defect (Eq. 24) below this."),
     doc!("solver", "virtual_control_tolerance", "scaled", TOLERANCE,
         "Convergence: largest virtual control below this."),
-    doc!("solver", "virtual_control_weight", "", open_closed(0.0, 1e12),
-        "Exact-penalty weight lambda on the 1-norm of the virtual control."),
+    doc!("solver", "virtual_control_weight", "", closed(1.0, 1e5),
+        "Exact-penalty weight lambda on the 1-norm of the virtual control. Above about 1e6 the subproblems fail."),
     doc!("solver", "proximal_weight", "", closed(0.0, 1e6),
         "Weight of the proximal term w*|dz|^2 of each subproblem; 0 is off."),
     doc!("solver", "trust_region_initial", "scaled", TRUST_RADIUS,

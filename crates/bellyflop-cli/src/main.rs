@@ -41,6 +41,13 @@ enum Command {
     Sweep(sweep::SweepArgs),
     /// Fly one closed-loop landing with dispersions: navigation noise,
     /// re-planning at 2 Hz, tracking and terminal descent, to touchdown.
+    ///
+    /// The outcome is `landed` (within the [touchdown] landing spec, by
+    /// default 1 m, 1 m/s, 2 deg), `hard_landing`, `crash` (beyond the
+    /// survivable limits, by default 5 m/s vertical, 3 m/s horizontal,
+    /// 10 deg), or no touchdown (propellant_exhausted, time_limit,
+    /// non_finite). Exit codes: 0 landed or hard landing, 8 crash, 7 no
+    /// touchdown, 2 bad input, 1 output files not written.
     Sim(sim::SimArgs),
     /// Fly many dispersed closed-loop landings in parallel and summarize
     /// the touchdown errors, fuel and re-plan times.

@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use bellyflop::guidance::{end_state, Flight, ReplanOutcome};
-use bellyflop::sim::Outcome;
+use bellyflop::sim::{Outcome, RunOutcome, TouchdownLimits};
 use bellyflop::Scenario;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -20,13 +20,8 @@ use serde::Serialize;
 use serde_json::{json, Value};
 
 use crate::output::{self, OutputError};
-use crate::sim::{load, outcome_name};
+use crate::sim::load;
 use crate::{campaign_plot, EXIT_BAD_INPUT};
-
-/// Landing requirement of issue 6: within 1 m, at most 1 m/s, |θ| ≤ 2°.
-pub const SPEC_POSITION_M: f64 = 1.0;
-pub const SPEC_SPEED_MPS: f64 = 1.0;
-pub const SPEC_PITCH_DEG: f64 = 2.0;
 
 #[derive(clap::Args)]
 pub struct MonteCarloArgs {
@@ -42,7 +37,8 @@ pub struct MonteCarloArgs {
     /// Scenario TOML file; the paper's case when omitted.
     #[arg(long)]
     scenario: Option<PathBuf>,
-    /// Closed-loop configuration TOML ([dispersions], [guidance], [plant]).
+    /// Closed-loop configuration TOML ([dispersions], [guidance], [plant],
+    /// [touchdown]).
     #[arg(long)]
     config: Option<PathBuf>,
     /// Fly every first plan without re-planning.
@@ -64,7 +60,8 @@ pub struct MonteCarloArgs {
 #[derive(Debug, Clone, Serialize)]
 pub struct RunRow {
     pub run: u64,
-    pub outcome: &'static str,
+    /// How the run ended, its touchdown judged by the `[touchdown]` limits.
+    pub outcome: RunOutcome,
     pub time_s: f64,
     pub x_error_m: f64,
     pub vertical_velocity_mps: f64,
@@ -85,10 +82,14 @@ pub struct RunRow {
     /// Every re-plan's solve time \[ms\] (for the histogram; not in the CSV).
     #[serde(skip)]
     pub replan_ms: Vec<f64>,
+    /// The landing spec the run was judged by (for the worst case; not in
+    /// the CSV).
+    #[serde(skip)]
+    pub limits: TouchdownLimits,
 }
 
 impl RunRow {
-    fn new(run: u64, f: &Flight) -> RunRow {
+    fn new(run: u64, f: &Flight, limits: &TouchdownLimits) -> RunRow {
         let s = end_state(&f.outcome);
         let (time_s, pitch_error_deg) = match &f.outcome {
             Outcome::Touchdown(td) => (td.time_s, td.pitch_error_deg),
@@ -99,7 +100,7 @@ impl RunRow {
         let replan_ms: Vec<f64> = f.replans.iter().map(|r| r.solve_ms).collect();
         RunRow {
             run,
-            outcome: outcome_name(&f.outcome),
+            outcome: RunOutcome::of(&f.outcome, limits),
             time_s,
             x_error_m: match &f.outcome {
                 Outcome::Touchdown(td) => td.x_error_m,
@@ -119,19 +120,18 @@ impl RunRow {
             max_replan_ms: replan_ms.iter().copied().fold(0.0, f64::max),
             first_plan_nominal: f.first_plan_nominal,
             replan_ms,
+            limits: *limits,
         }
     }
 
-    fn touchdown(&self) -> bool {
-        self.outcome == "touchdown"
+    /// The run ended on the ground (landed, hard landing or crash).
+    pub fn touchdown(&self) -> bool {
+        self.outcome.touched_down()
     }
 
-    /// Within the landing requirement.
+    /// Within the landing requirement (`landed`).
     pub fn in_spec(&self) -> bool {
-        self.touchdown()
-            && self.x_error_m.abs() <= SPEC_POSITION_M
-            && self.speed_mps <= SPEC_SPEED_MPS
-            && self.pitch_error_deg.abs() <= SPEC_PITCH_DEG
+        self.outcome == RunOutcome::Landed
     }
 
     /// The largest of the three errors, each divided by its requirement
@@ -140,9 +140,10 @@ impl RunRow {
         if !self.touchdown() {
             return f64::INFINITY;
         }
-        (self.x_error_m.abs() / SPEC_POSITION_M)
-            .max(self.speed_mps / SPEC_SPEED_MPS)
-            .max(self.pitch_error_deg.abs() / SPEC_PITCH_DEG)
+        let l = &self.limits;
+        (self.x_error_m.abs() / l.landed_position_m)
+            .max(self.speed_mps / l.landed_speed_mps)
+            .max(self.pitch_error_deg.abs() / l.landed_pitch_deg)
     }
 }
 
@@ -158,7 +159,21 @@ pub fn percentiles(values: &[f64]) -> Value {
 }
 
 /// The campaign summary (the `--json` object).
-pub fn summary(rows: &[RunRow], seed: u64, threads: usize, wall_s: f64, open_loop: bool) -> Value {
+pub fn summary(
+    rows: &[RunRow],
+    limits: &TouchdownLimits,
+    seed: u64,
+    threads: usize,
+    wall_s: f64,
+    open_loop: bool,
+) -> Value {
+    let outcomes: serde_json::Map<String, Value> = RunOutcome::ALL
+        .iter()
+        .map(|&o| {
+            let n = rows.iter().filter(|r| r.outcome == o).count();
+            (o.as_str().to_string(), n.into())
+        })
+        .collect();
     let td: Vec<&RunRow> = rows.iter().filter(|r| r.touchdown()).collect();
     let of = |g: &dyn Fn(&RunRow) -> f64| td.iter().map(|r| g(r)).collect::<Vec<f64>>();
     let all_ms: Vec<f64> = rows
@@ -178,7 +193,9 @@ pub fn summary(rows: &[RunRow], seed: u64, threads: usize, wall_s: f64, open_loo
         "failures": rows.len() - td.len(),
         "in_spec": rows.iter().filter(|r| r.in_spec()).count(),
         "in_spec_fraction": rows.iter().filter(|r| r.in_spec()).count() as f64 / rows.len().max(1) as f64,
-        "spec": {"position_m": SPEC_POSITION_M, "speed_mps": SPEC_SPEED_MPS, "pitch_deg": SPEC_PITCH_DEG},
+        "outcomes": outcomes,
+        "spec": {"position_m": limits.landed_position_m, "speed_mps": limits.landed_speed_mps, "pitch_deg": limits.landed_pitch_deg},
+        "touchdown_limits": limits,
         "replans": all_ms.len(),
         "failed_replans": rows.iter().map(|r| r.failed_replans).sum::<usize>(),
         "missed_replans": rows.iter().map(|r| r.missed_replans).sum::<usize>(),
@@ -243,7 +260,7 @@ pub fn run(args: &MonteCarloArgs) -> ExitCode {
             .map(|k| {
                 let f = config.fly(&scenario, args.seed, k, false)?;
                 bar.inc(1);
-                Ok(RunRow::new(k, &f))
+                Ok(RunRow::new(k, &f, &config.touchdown))
             })
             .collect()
     });
@@ -256,7 +273,14 @@ pub fn run(args: &MonteCarloArgs) -> ExitCode {
         }
     };
     let wall_s = start.elapsed().as_secs_f64();
-    let s = summary(&rows, args.seed, threads, wall_s, args.open_loop);
+    let s = summary(
+        &rows,
+        &config.touchdown,
+        args.seed,
+        threads,
+        wall_s,
+        args.open_loop,
+    );
     if args.json {
         println!("{s}");
     } else {
@@ -284,14 +308,23 @@ fn print_summary(s: &Value) {
         },
         s["wall_time_s"].as_f64().unwrap_or(0.0)
     );
+    let spec = &s["spec"];
     println!(
-        "touchdowns    {} of {} ({} failures); within spec (|x| <= 1 m, speed <= 1 m/s, |pitch| <= 2 deg): {} ({:.1} %)",
+        "touchdowns    {} of {} ({} failures); within spec (|x| <= {} m, speed <= {} m/s, |pitch| <= {} deg): {} ({:.1} %)",
         s["runs"].as_u64().unwrap_or(0) - s["failures"].as_u64().unwrap_or(0),
         s["runs"],
         s["failures"],
+        spec["position_m"],
+        spec["speed_mps"],
+        spec["pitch_deg"],
         s["in_spec"],
         100.0 * s["in_spec_fraction"].as_f64().unwrap_or(0.0)
     );
+    let outcomes: Vec<String> = RunOutcome::ALL
+        .iter()
+        .map(|o| format!("{} {}", o.as_str(), s["outcomes"][o.as_str()]))
+        .collect();
+    println!("outcomes      {}", outcomes.join(", "));
     println!(
         "re-plans      {} ({} failed, {} missed the deadline (iteration budget), {} flown unconverged at the budget, {} slower than the period on the clock)",
         s["replans"], s["failed_replans"], s["missed_replans"], s["usable_replans"], s["late_replans"]
@@ -339,7 +372,7 @@ fn write(
             csv,
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.run,
-            r.outcome,
+            r.outcome.as_str(),
             r.time_s,
             r.x_error_m,
             r.vertical_velocity_mps,

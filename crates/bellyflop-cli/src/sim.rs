@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use bellyflop::guidance::{end_state, Flight, ReplanOutcome, SimConfig};
-use bellyflop::sim::{Dispersions, Outcome};
+use bellyflop::sim::{Dispersions, Outcome, RunOutcome};
 use bellyflop::Scenario;
 use serde_json::{json, Value};
 
@@ -15,13 +15,16 @@ use crate::{campaign_plot, EXIT_BAD_INPUT};
 
 /// Exit code of a run that did not end in a touchdown.
 pub const EXIT_NO_TOUCHDOWN: u8 = 7;
+/// Exit code of a touchdown beyond the survivable limits (`crash`).
+pub const EXIT_CRASH: u8 = 8;
 
 #[derive(clap::Args, Default)]
 pub struct SimArgs {
     /// Scenario TOML file; the paper's case when omitted.
     #[arg(long)]
     scenario: Option<PathBuf>,
-    /// Closed-loop configuration TOML ([dispersions], [guidance], [plant]);
+    /// Closed-loop configuration TOML ([dispersions], [guidance], [plant],
+    /// [touchdown]);
     /// every field defaults (see `bellyflop::guidance::SimConfig`).
     #[arg(long)]
     config: Option<PathBuf>,
@@ -96,34 +99,34 @@ pub fn run(args: &SimArgs) -> ExitCode {
             return ExitCode::from(EXIT_BAD_INPUT);
         }
     };
-    let v = flight_json(&flight, args.seed, args.run, &config);
+    let outcome = config.outcome(&flight);
+    let v = flight_json(&flight, outcome, args.seed, args.run, &config);
     if args.json {
         println!("{v}");
     } else {
-        print_summary(&flight, args.seed, args.run);
+        print_summary(&flight, outcome, args.seed, args.run);
     }
     if let Some(dir) = &args.out {
         if let Err(code) = output::report(dir, write(dir, &scenario, &flight, &v), args.json) {
             return code;
         }
     }
-    match flight.outcome {
-        Outcome::Touchdown(_) => ExitCode::SUCCESS,
-        _ => ExitCode::from(EXIT_NO_TOUCHDOWN),
-    }
+    ExitCode::from(exit_code(outcome))
 }
 
-/// The name of an outcome.
-pub fn outcome_name(o: &Outcome) -> &'static str {
+/// The exit code of `sim`: 0 landed or hard landing, [`EXIT_CRASH`] on a
+/// crash, [`EXIT_NO_TOUCHDOWN`] without a touchdown.
+pub fn exit_code(o: RunOutcome) -> u8 {
     match o {
-        Outcome::Touchdown(_) => "touchdown",
-        Outcome::PropellantExhausted { .. } => "propellant_exhausted",
-        Outcome::TimeLimit { .. } => "time_limit",
-        Outcome::NonFinite { .. } => "non_finite",
+        RunOutcome::Landed | RunOutcome::HardLanding => 0,
+        RunOutcome::Crash => EXIT_CRASH,
+        RunOutcome::PropellantExhausted | RunOutcome::TimeLimit | RunOutcome::NonFinite => {
+            EXIT_NO_TOUCHDOWN
+        }
     }
 }
 
-fn print_summary(f: &Flight, seed: u64, run: u64) {
+fn print_summary(f: &Flight, outcome: RunOutcome, seed: u64, run: u64) {
     println!("run           seed {seed}, run {run}");
     println!(
         "first plan    {}{}, t_f {:.3} s, {} iterations",
@@ -136,7 +139,7 @@ fn print_summary(f: &Flight, seed: u64, run: u64) {
         f.first_plan.tf_s,
         f.first_plan.iterations
     );
-    println!("outcome       {}", outcome_name(&f.outcome));
+    println!("outcome       {}", outcome.as_str());
     if let Outcome::Touchdown(td) = &f.outcome {
         println!("touchdown     t = {:.3} s", td.time_s);
         println!("  position    {:+.3} m", td.x_error_m);
@@ -177,12 +180,18 @@ fn print_summary(f: &Flight, seed: u64, run: u64) {
 }
 
 /// The flight as one JSON object.
-pub fn flight_json(f: &Flight, seed: u64, run: u64, config: &SimConfig) -> Value {
+pub fn flight_json(
+    f: &Flight,
+    outcome: RunOutcome,
+    seed: u64,
+    run: u64,
+    config: &SimConfig,
+) -> Value {
     json!({
         "seed": seed,
         "run": run,
         "outcome": f.outcome,
-        "outcome_name": outcome_name(&f.outcome),
+        "outcome_name": outcome,
         "fuel_kg": f.fuel_kg(),
         "first_plan": {
             "status": f.first_plan.status.as_str(),

@@ -103,3 +103,47 @@ fn iteration_limit_exits_4() {
     let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(v["status"], "not_converged");
 }
+
+/// Issue 18's messages: each names the problem, and each is bad input (2).
+#[test]
+fn bad_input_messages_name_the_problem() {
+    // A file that is not UTF-8: the file, the byte, the line.
+    let path = write_scenario("latin1.toml", |t| t.to_string());
+    let mut bytes = std::fs::read(&path).unwrap();
+    let at = bytes.iter().position(|&b| b == b'\n').unwrap() + 1;
+    bytes.splice(at..at, b"# caf\xe9\n".iter().copied());
+    std::fs::write(&path, &bytes).unwrap();
+    let (code, _, stderr) = bellyflop(&["solve", "--scenario", path.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains(path.to_str().unwrap()), "{stderr}");
+    assert!(
+        stderr.contains(&format!("at byte {}", at + 5)) && stderr.contains("(line 2, column 6)"),
+        "{stderr}"
+    );
+
+    // An empty name.
+    let path = write_scenario("noname.toml", |t| {
+        t.replace("name = \"paper\"", "name = \"\"")
+    });
+    let (code, _, stderr) = bellyflop(&["solve", "--scenario", path.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("name must be non-empty"), "{stderr}");
+
+    // A bad guidance configuration is called one.
+    let path = write_scenario("config.toml", |_| "[guidance]\nreplan = 3\n".into());
+    let (code, _, stderr) = bellyflop(&["sim", "--config", path.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("guidance config TOML, line 2"), "{stderr}");
+    assert!(!stderr.contains("scenario"), "{stderr}");
+
+    // `init` into a directory that does not exist.
+    let dir = std::env::temp_dir().join(format!("bellyflop-no-such-dir-{}", std::process::id()));
+    let file = dir.join("s.toml");
+    let (code, _, stderr) = bellyflop(&["init", file.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("does not exist") && stderr.contains(dir.to_str().unwrap()),
+        "{stderr}"
+    );
+    assert!(!file.exists());
+}

@@ -18,7 +18,7 @@ fn sim_lands_and_writes_its_files() {
     let (code, stdout, stderr) = bellyflop(&["sim", "--no-dispersions", "--json", "--out", d]);
     assert_eq!(code, 0, "{stderr}");
     let v: Value = serde_json::from_str(&stdout).expect("one JSON object");
-    assert_eq!(v["outcome_name"], "touchdown");
+    assert_eq!(v["outcome_name"], "landed");
     let td = &v["outcome"];
     assert!(td["x_error_m"].as_f64().unwrap().abs() < 1.0, "{td}");
     assert!(td["speed_mps"].as_f64().unwrap() < 1.5, "{td}");
@@ -69,6 +69,12 @@ fn montecarlo_summary_has_the_documented_fields_and_is_thread_independent() {
     };
     let v = run("1", &d1);
     assert_eq!(v["runs"], 4);
+    // Every run has one outcome, and each outcome is counted.
+    let outcomes = v["outcomes"].as_object().unwrap();
+    assert_eq!(outcomes.len(), 6, "{outcomes:?}");
+    let total: u64 = outcomes.values().map(|n| n.as_u64().unwrap()).sum();
+    assert_eq!(total, 4, "{outcomes:?}");
+    assert!(v["worst"]["outcome"].is_string());
     assert_eq!(v["threads"], 1);
     for key in ["failures", "missed_replans"] {
         assert!(v[key].is_u64(), "{key}");
@@ -126,4 +132,28 @@ fn bad_campaign_input_is_rejected_with_exit_2() {
         stderr.contains("dispersions.thrust_3sigma_frac"),
         "{stderr}"
     );
+}
+
+/// A touchdown at 84 m/s is a `crash` and exits 8 (issue 18: a 116 m/s
+/// impact was a `touchdown` with exit 0). From 60 m up at 85 m/s no plan
+/// solves, and the vehicle falls.
+#[test]
+fn crash_is_reported_and_exits_8() {
+    let dir = tmp("crash");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("low.toml");
+    let text = bellyflop::scenario::PAPER_TOML
+        .replacen("z_m = 600.0", "z_m = 60.0", 1)
+        .replacen("nodes = 20 ", "nodes = 6 ", 1)
+        .replacen("max_iterations = 100", "max_iterations = 5", 1);
+    std::fs::write(&path, text).unwrap();
+    let p = path.to_str().unwrap();
+    let (code, stdout, stderr) = bellyflop(&["sim", "--scenario", p, "--no-dispersions", "--json"]);
+    assert_eq!(code, 8, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).expect("one JSON object");
+    assert_eq!(v["outcome_name"], "crash");
+    assert!(v["outcome"]["speed_mps"].as_f64().unwrap() > 50.0, "{v}");
+    let (code, stdout, _) = bellyflop(&["sim", "--scenario", p, "--no-dispersions"]);
+    assert_eq!(code, 8);
+    assert!(stdout.contains("outcome       crash"), "{stdout}");
 }

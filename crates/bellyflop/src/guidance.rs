@@ -73,7 +73,8 @@ use crate::replan::{initial_state, Plan, Planner};
 use crate::scenario::Scenario;
 use crate::scvx::Silent;
 use crate::sim::{
-    Command, Dispersions, Outcome, Plant, PlantConfig, PlantState, SaturationCounts, StepResult,
+    Command, Dispersions, Outcome, Plant, PlantConfig, PlantState, RunOutcome, SaturationCounts,
+    StepResult, TouchdownLimits,
 };
 use crate::solution::{Solution, Status};
 
@@ -509,6 +510,13 @@ pub fn fly(
     let mut x0 = lcvx(&measured0);
     x0[ix::DELTA] = x0[ix::DELTA].clamp(-gimbal_max_rad, gimbal_max_rad);
     s0.initial = initial_state(&x0);
+    s0.discretization.final_mass_guess_kg = crate::replan::final_mass_guess(
+        None,
+        0.0,
+        s0.initial.mass_kg,
+        s0.vehicle.dry_mass_kg,
+        s0.discretization.final_mass_guess_kg,
+    );
     let mut planner = Planner::new(scenario.clone());
     let (mut first_plan, mut nominal) = (None, false);
     if s0.validate().is_ok() {
@@ -944,33 +952,44 @@ fn fall_without_plan(
 }
 
 /// Everything a closed-loop run needs besides the scenario, as one TOML file
-/// with the tables `[dispersions]`, `[guidance]` and `[plant]`; every field
-/// is optional and takes its documented default.
+/// with the tables `[dispersions]`, `[guidance]`, `[plant]` and
+/// `[touchdown]`; every field is optional and takes its documented default.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
     pub dispersions: Dispersions,
     pub guidance: GuidanceConfig,
     pub plant: PlantConfig,
+    /// How touchdowns are judged (`landed`, `hard_landing`, `crash`).
+    pub touchdown: TouchdownLimits,
 }
 
 impl SimConfig {
     /// Parse and validate a configuration.
     pub fn from_toml_str(text: &str) -> Result<Self, InputError> {
-        let c: SimConfig = crate::error::parse_toml(text)?;
+        let c: SimConfig = crate::error::parse_toml(crate::error::FileKind::GuidanceConfig, text)?;
         c.validate()?;
         Ok(c)
     }
 
     /// Read, parse and validate a configuration file.
     pub fn from_file(path: &std::path::Path) -> Result<Self, InputError> {
-        Self::from_toml_str(&crate::error::read_text(path)?)
+        Self::from_toml_str(&crate::error::read_text(
+            crate::error::FileKind::GuidanceConfig,
+            path,
+        )?)
     }
 
     pub fn validate(&self) -> Result<(), InputError> {
         self.dispersions.validate()?;
         self.guidance.validate()?;
-        self.plant.validate()
+        self.plant.validate()?;
+        self.touchdown.validate()
+    }
+
+    /// How `flight` ended, its touchdown judged by [`SimConfig::touchdown`].
+    pub fn outcome(&self, flight: &Flight) -> RunOutcome {
+        RunOutcome::of(&flight.outcome, &self.touchdown)
     }
 
     /// Fly run `run_index` of campaign `seed` with this configuration.
@@ -1086,6 +1105,51 @@ mod tests {
         assert!(td.pitch_error_deg.abs() < 1.0, "{td:?}");
     }
 
+    /// Re-plans derive their final-mass guess from the measured mass and the
+    /// previous plan (issue 18: with the scenario's fixed 119,000-kg guess
+    /// and m0 = 120,000 kg, 15 of 21 re-plans failed as `bad_state` once the
+    /// vehicle was lighter than the guess).
+    #[test]
+    fn replans_survive_a_final_mass_guess_near_the_initial_mass() {
+        let mut s = Scenario::paper();
+        s.discretization.final_mass_guess_kg = 119_000.0;
+        let f = nominal().fly(&s, 1, 0, false).unwrap();
+        assert_eq!(f.replans.len(), 21, "{:?}", f.replans);
+        let flown = f.count(ReplanOutcome::Accepted) + f.count(ReplanOutcome::Usable);
+        assert_eq!(flown, 21, "{:?}", f.replans);
+        assert!(f.replans.iter().all(|r| r.status != "bad_state"));
+    }
+
+    /// The guess is the mass less the plan's remaining burn, within
+    /// [m_dry, m]; without a plan the fallback, within the same bounds.
+    #[test]
+    fn final_mass_guess_follows_the_plan_and_stays_in_bounds() {
+        use crate::replan::final_mass_guess;
+        let mut p = Planner::new(Scenario::paper());
+        p.cold(&mut Silent);
+        let plan = p.plan.expect("the paper's case solves");
+        let n = plan.mesh.n;
+        let m0 = plan.trajectory.x[0][ix::OMEGA].exp();
+        let mf = plan.trajectory.x[n][ix::OMEGA].exp();
+        let g = final_mass_guess(Some(&plan), 0.0, 118_000.0, 85_000.0, 119_000.0);
+        assert!((g - (118_000.0 - (m0 - mf))).abs() < 1e-6, "{g}");
+        // At the end of the plan nothing is left to burn.
+        let g = final_mass_guess(Some(&plan), plan.tf_s(), 112_000.0, 85_000.0, 0.0);
+        assert!((g - 112_000.0).abs() < 1e-6, "{g}");
+        assert_eq!(
+            final_mass_guess(Some(&plan), 0.0, 86_000.0, 85_000.0, 0.0),
+            85_000.0
+        );
+        assert_eq!(
+            final_mass_guess(None, 0.0, 100_000.0, 85_000.0, 119_000.0),
+            100_000.0
+        );
+        assert_eq!(
+            final_mass_guess(None, 0.0, 100_000.0, 85_000.0, 1.0),
+            85_000.0
+        );
+    }
+
     /// The same (seed, run) flies the same flight.
     #[test]
     fn runs_are_reproducible() {
@@ -1115,5 +1179,10 @@ mod tests {
         assert!(e.to_string().contains("guidance.replan_rate_hz"), "{e}");
         let e = SimConfig::from_toml_str("[guidance]\nbogus = 1\n").unwrap_err();
         assert!(e.to_string().contains("bogus"), "{e}");
+        // A configuration's TOML error calls it one, not a scenario.
+        assert!(
+            e.to_string().starts_with("guidance config TOML, line 2"),
+            "{e}"
+        );
     }
 }

@@ -27,7 +27,7 @@
 //!
 //! The thrust is known at the N collocation points (the last entry of
 //! [`Solution::thrust_n`], at t_f, holds the last collocation point's σ = T/m
-//! times m(t_f)); δ is a
+//! times m(t_f), within [T_min, T_max]); δ is a
 //! state known at all N + 1 nodes ([`Solution::delta_rad`]). Between nodes they
 //! are interpolated by [`Interpolation::Linear`] or [`Interpolation::Pchip`]
 //! (monotone piecewise cubic). The integration runs segment by segment between

@@ -230,6 +230,13 @@ impl Planner {
         if let Some(plan) = &self.plan {
             s.discretization.tf_guess_s = (plan.tf_s() - elapsed_s).max(0.05 * plan.tf_s());
         }
+        s.discretization.final_mass_guess_kg = final_mass_guess(
+            self.plan.as_ref(),
+            elapsed_s,
+            state.mass_kg,
+            s.vehicle.dry_mass_kg,
+            s.discretization.final_mass_guess_kg,
+        );
         s.validate()?;
         let Some(plan) = &self.plan else {
             let sol = scvx::solve(&s, observer);
@@ -280,6 +287,31 @@ impl Planner {
         };
         Ok(self.adopt(sol))
     }
+}
+
+/// Final-mass guess \[kg\] for a solve from mass `mass_kg`: that mass less the
+/// propellant `plan` still burns after `elapsed_s` (`fallback_kg` without a
+/// plan), kept within [m_dry, `mass_kg`]. A fixed guess fails validation once
+/// the vehicle is lighter than it (every re-plan was then `bad_state`).
+pub fn final_mass_guess(
+    plan: Option<&Plan>,
+    elapsed_s: f64,
+    mass_kg: f64,
+    dry_mass_kg: f64,
+    fallback_kg: f64,
+) -> f64 {
+    let guess = match plan {
+        Some(p) => {
+            let n = p.mesh.n;
+            let planned_now = p.state_at(elapsed_s)[ix::OMEGA].exp();
+            let planned_final = p.trajectory.x[n][ix::OMEGA].exp();
+            mass_kg - (planned_now - planned_final).max(0.0)
+        }
+        None => fallback_kg,
+    };
+    // max then min, not clamp: no panic when m_dry > mass (validation
+    // rejects that state).
+    guess.max(dry_mass_kg).min(mass_kg)
 }
 
 /// The measured state as an [`InitialState`] (degrees for the angles).

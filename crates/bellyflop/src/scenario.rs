@@ -257,14 +257,17 @@ impl Scenario {
 
     /// Parse and validate a scenario from TOML text.
     pub fn from_toml_str(text: &str) -> Result<Self, InputError> {
-        let scenario: Scenario = crate::error::parse_toml(text)?;
+        let scenario: Scenario = crate::error::parse_toml(crate::error::FileKind::Scenario, text)?;
         scenario.validate()?;
         Ok(scenario)
     }
 
     /// Read, parse and validate a scenario file.
     pub fn from_file(path: &std::path::Path) -> Result<Self, InputError> {
-        Self::from_toml_str(&crate::error::read_text(path)?)
+        Self::from_toml_str(&crate::error::read_text(
+            crate::error::FileKind::Scenario,
+            path,
+        )?)
     }
 
     /// Check every field against its allowed range.

@@ -84,6 +84,19 @@ pub fn straight_line(tr: &Transcription, tf_s: f64, final_mass_kg: f64) -> Traje
 /// tolerance, the answer is only "not converged".
 pub const INFEASIBLE_VIRTUAL_CONTROL: f64 = 1e-4;
 
+/// How far a returned path may dip below the landing altitude at a node and
+/// still be `solved` \[m\]: 1 mm, a thousandth of the paper's re-integrated
+/// landing error (0.8 m). The ground bound z ≥ z_f holds only to the
+/// subproblem's tolerances: a 0 tolerance (1 µm before) called a path
+/// 1.5 µm under the pad `non_physical`.
+pub const GROUND_TOLERANCE_M: f64 = 1e-3;
+
+/// How far a `solved` thrust may leave [T_min, T_max], as a fraction of
+/// T_max (2.2 N on the paper's case). The bounds are linearized in ω (Eq. 28),
+/// which costs T_min·Δω²/2 below T_min, and held with penalized buffers up
+/// to the virtual-control tolerance: measured 4e-5 N with T_min = T_max.
+pub const THRUST_TOLERANCE_FRAC: f64 = 1e-6;
+
 /// Consecutive creeping steps (see `solve_from_with`) after which the trust
 /// region shrinks.
 const CREEP_WINDOW: usize = 5;
@@ -143,6 +156,11 @@ const STATE_NAMES: [&str; NX] = [
     "delta (nozzle angle)",
 ];
 
+/// Below this many collocation points an `infeasible` answer says only that
+/// no trajectory was found on the mesh: the paper's case is `infeasible` at
+/// N = 4 (the smallest accepted) and solved from N = 5 on.
+pub const COARSE_MESH_NODES: usize = 10;
+
 /// Explain why a stationary point with virtual control is infeasible.
 fn infeasibility_reason(tr: &Transcription, t: &Trajectory, vc: f64) -> String {
     let d = tr.defects(t);
@@ -154,12 +172,19 @@ fn infeasibility_reason(tr: &Transcription, t: &Trajectory, vc: f64) -> String {
             }
         }
     }
+    let n = tr.layout.n;
+    let claim = if n < COARSE_MESH_NODES {
+        format!(
+            "no trajectory was found on this mesh of N = {n} collocation points, which may be too coarse: try more nodes (discretization.nodes or --nodes, e.g. 20)"
+        )
+    } else {
+        "no trajectory meets the dynamics and boundary conditions".to_string()
+    };
     let mut reason = format!(
-        "no trajectory meets the dynamics and boundary conditions: SCvx settled with virtual control {vc:.2e} (scaled); the largest violation is in the {} equation at t = {:.2} s",
+        "{claim}: SCvx settled with virtual control {vc:.2e} (scaled); the largest violation is in the {} equation at t = {:.2} s",
         STATE_NAMES[comp],
         tr.mesh.time_s(node, t.tf_s)
     );
-    let n = tr.layout.n;
     let mf = t.x[n][ix::OMEGA].exp();
     if mf <= tr.model.dry_mass_kg * (1.0 + 1e-6) {
         reason += &format!(
@@ -446,11 +471,17 @@ pub fn solve_from_with(
                 "lossless relaxation not tight: max(1 - |T|/sigma) = {:.3e} > {:.1e}",
                 checks.relaxation_gap, settings.relaxation_gap_tolerance
             );
-        } else if checks.min_altitude_margin_m < -1e-6 {
+        } else if checks.min_altitude_margin_m < -GROUND_TOLERANCE_M {
             status = Status::NonPhysical;
             message = format!(
-                "the trajectory passes {:.3} m below the landing altitude",
+                "the trajectory passes {:.3e} m below the landing altitude (more than the {GROUND_TOLERANCE_M} m tolerance)",
                 -checks.min_altitude_margin_m
+            );
+        } else if checks.thrust_bound_violation_n > THRUST_TOLERANCE_FRAC * tr.model.max_thrust_n {
+            status = Status::NonPhysical;
+            message = format!(
+                "the thrust leaves [T_min, T_max] by {:.3e} N (more than {THRUST_TOLERANCE_FRAC:.0e} of T_max)",
+                checks.thrust_bound_violation_n
             );
         } else if checks.thrust_backwards() {
             status = Status::NonPhysical;

@@ -82,7 +82,8 @@ pub struct Checks {
     /// min over nodes of the cosine between the thrust and the nozzle axis
     /// (1 = along the nozzle, < 0 = pointing backwards).
     pub thrust_alignment_min: f64,
-    /// Largest thrust-bound violation max(T_min − T, T − T_max, 0) \[N\].
+    /// Largest thrust-bound violation max(T_min − T, T − T_max, 0) over
+    /// every reported thrust ([`node_thrust_n`]) \[N\].
     pub thrust_bound_violation_n: f64,
     /// Largest nonlinear collocation defect (scaled by each state's scale).
     pub max_defect: f64,
@@ -102,7 +103,8 @@ impl Checks {
 ///
 /// Node arrays have N+1 entries at the LGR points (time t = (τ+1)·t_f/2).
 /// Controls live on the N collocation points; their value at t_f repeats the
-/// last collocation point.
+/// last collocation point (the thrust: its σ, within the bounds, see
+/// [`node_thrust_n`]).
 #[derive(Debug, Clone, Serialize)]
 pub struct Solution {
     pub status: Status,
@@ -144,12 +146,32 @@ pub struct Solution {
     pub trajectory: Trajectory,
 }
 
+/// Thrust \[N\] at the N + 1 nodes, as [`Solution::thrust_n`] reports it:
+/// σ·m at the N collocation points; at t_f, where LGR has no control, the
+/// last point's σ times the final mass, kept within [T_min, T_max]. (σ held
+/// alone would leave the engine's range: the mass falls after the last
+/// point, so a σ at T_min/m gave 2,209,399 N against T_min = 2,210,000 N.)
+pub fn node_thrust_n(tr: &Transcription, t: &Trajectory) -> Vec<f64> {
+    let n = tr.layout.n;
+    let si = tr.sigma_index();
+    let (lo, hi) = (tr.model.min_thrust_n, tr.model.max_thrust_n);
+    (0..=n)
+        .map(|k| {
+            let thrust = t.u[k.min(n - 1)][si] * t.x[k][ix::OMEGA].exp();
+            if k == n {
+                thrust.clamp(lo, hi)
+            } else {
+                thrust
+            }
+        })
+        .collect()
+}
+
 /// Evaluate the physical checks of a trajectory.
 pub fn check(tr: &Transcription, t: &Trajectory, virtual_control: f64) -> Checks {
     let mut gap = 0.0f64;
     let mut align = 1.0f64;
     let mut bound = 0.0f64;
-    let si = tr.sigma_index();
     for i in 0..tr.layout.n {
         let x = &t.x[i];
         let (txm, tzm, sigma) = dynamics::thrust_components(tr.form, x, &t.u[i][..tr.layout.nu]);
@@ -161,7 +183,9 @@ pub fn check(tr: &Transcription, t: &Trajectory, virtual_control: f64) -> Checks
         if norm > 0.0 {
             align = align.min((txm * phi.sin() + tzm * phi.cos()) / norm);
         }
-        let thrust = t.u[i][si] * x[ix::OMEGA].exp();
+    }
+    // Every reported thrust, the final node's included.
+    for thrust in node_thrust_n(tr, t) {
         bound = bound
             .max(tr.model.min_thrust_n - thrust)
             .max(thrust - tr.model.max_thrust_n);
@@ -199,11 +223,10 @@ impl Solution {
     ) -> Self {
         let n = tr.layout.n;
         let col = |c: usize| t.x.iter().map(|x| x[c]).collect::<Vec<f64>>();
-        let si = tr.sigma_index();
         let chi = tr.layout.nu - 1;
         let ctrl = |i: usize| &t.u[i.min(n - 1)];
         let mass_kg: Vec<f64> = t.x.iter().map(|x| x[ix::OMEGA].exp()).collect();
-        let thrust_n = (0..=n).map(|k| ctrl(k)[si] * mass_kg[k]).collect();
+        let thrust_n = node_thrust_n(tr, &t);
         let gimbal_rate_radps = (0..=n).map(|k| ctrl(k)[chi]).collect();
         let final_mass_kg = mass_kg[n];
         Solution {

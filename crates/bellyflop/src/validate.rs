@@ -87,26 +87,32 @@ impl Range {
 // vehicles well beyond Super Heavy (≈ 5e6 kg fuelled, ≈ 7.5e7 N thrust).
 // ---------------------------------------------------------------------------
 
-/// Masses (dry mass, initial mass, final-mass guess): positive, and at most
+/// Masses (dry mass, initial mass, final-mass guess): at least 1 kg (a
+/// subnormal mass, 5e-324 kg, broke the subproblem: exit 6), and at most
 /// 1e7 kg, about twice the fuelled mass of the largest rocket ever flown.
-const MASS: Range = Range::open_closed(0.0, 1e7, "kg");
-/// Body length, radius and the cg/cp stations: positive (a zero lever arm or
-/// radius makes the pitch dynamics degenerate), at most 1 km.
-const LENGTH: Range = Range::open_closed(0.0, 1000.0, "m");
-/// Maximum thrust: positive (a zero T_max leaves no control at all), at most
-/// 1e9 N, over ten times any engine cluster built.
-const MAX_THRUST: Range = Range::open_closed(0.0, 1e9, "N");
+const MASS: Range = Range::closed(1.0, 1e7, "kg");
+/// Body length, radius and the cg/cp stations: at least 1 cm (a zero lever
+/// arm or radius makes the pitch dynamics degenerate; 1e-300 m broke the
+/// subproblem), at most 1 km.
+const LENGTH: Range = Range::closed(0.01, 1000.0, "m");
+/// Maximum thrust: at least 1 N (a zero T_max leaves no control at all, and
+/// 5e-324 N broke the subproblem), at most 1e9 N, over ten times any engine
+/// cluster built.
+const MAX_THRUST: Range = Range::closed(1.0, 1e9, "N");
 /// Minimum thrust: may be 0 (a deep-throttling engine, no lower bound in
 /// Eq. 5), same upper bound as T_max.
 const MIN_THRUST: Range = Range::closed(0.0, 1e9, "N");
-/// Specific impulse: positive (the mass-flow equation ṁ = −T/(I_sp·g0)
-/// divides by it), at most 1000 s, above any chemical engine (≈ 465 s).
-const ISP: Range = Range::open_closed(0.0, 1000.0, "s");
-/// Maximum gimbal angle δ_max: positive (otherwise the engine cannot steer)
-/// and below 90°, where the nozzle would point sideways.
-const MAX_GIMBAL: Range = Range::open(0.0, 90.0, "deg");
-/// Maximum gimbal rate χ_max: positive, at most one turn per second.
-const GIMBAL_RATE: Range = Range::open_closed(0.0, 360.0, "deg/s");
+/// Specific impulse: at least 1 s (the mass-flow equation ṁ = −T/(I_sp·g0)
+/// divides by it, and below 1e-6 s it broke the subproblem; cold gas is
+/// ≈ 70 s), at most 1000 s, above any chemical engine (≈ 465 s).
+const ISP: Range = Range::closed(1.0, 1000.0, "s");
+/// Maximum gimbal angle δ_max: at least 0.1° (a smaller limit cannot steer,
+/// and a subnormal one became 0 rad and broke the subproblem's bounds) and
+/// below 90°, where the nozzle would point sideways.
+const MAX_GIMBAL: Range = Range::closed_open(0.1, 90.0, "deg");
+/// Maximum gimbal rate χ_max: at least 0.1 deg/s (as for δ_max), at most one
+/// turn per second.
+const GIMBAL_RATE: Range = Range::closed(0.1, 360.0, "deg/s");
 /// Lumped drag coefficient C_LD = ½·ρ·c_D·A: zero (vacuum) is allowed; 1e5
 /// kg/m is ~500 times the paper's 195.52 kg/m.
 const DRAG: Range = Range::closed(0.0, 1e5, "kg/m");
@@ -115,8 +121,9 @@ const DRAG: Range = Range::closed(0.0, 1e5, "kg/m");
 // Environment.
 // ---------------------------------------------------------------------------
 
-/// g0: positive (I_sp·g0 is a divisor), at most 100 m/s² (Jupiter ≈ 25).
-const G0: Range = Range::open_closed(0.0, 100.0, "m/s^2");
+/// g0: at least 1e-3 m/s² (I_sp·g0 is a divisor, and below 1e-6 it broke the
+/// subproblem; a 10-km asteroid has ≈ 3e-3), at most 100 m/s² (Jupiter ≈ 25).
+const G0: Range = Range::closed(1e-3, 100.0, "m/s^2");
 /// Steady wind: |W| ≤ 100 m/s, above any wind a vehicle lands in.
 const WIND: Range = Range::closed(-100.0, 100.0, "m/s");
 
@@ -167,8 +174,15 @@ const RELAXED_FIRST_ITERATIONS: (usize, usize) = (0, 10_000);
 /// gap 1 − ‖T‖/σ: strictly between 0 (never reached in floating point) and 1
 /// (no accuracy at all).
 const TOLERANCE: Range = Range::open(0.0, 1.0, "");
-/// Exact-penalty weight λ: positive (Mao et al. need λ large enough), at most
-/// 1e12, past which the subproblem cost is dominated by round-off.
+/// Exact-penalty weight λ on the virtual control: 1 to 1e5. Measured with
+/// `bellyflop solve` on the paper's case in all three formulations (relaxed
+/// first phase on and off): 1 to 1e6 solve; 3e6 and 1e7 fail in some
+/// formulation (infeasible, non_physical, not_converged), and from 1e8 on
+/// Clarabel fails on every try (exit 6). 1e5 keeps a factor 10 of margin;
+/// below 1 the penalty is too weak to remove the virtual control.
+const VC_WEIGHT: Range = Range::closed(1.0, 1e5, "");
+/// Weight of the soft thrust margin: positive, at most 1e12, past which the
+/// subproblem cost is dominated by round-off.
 const WEIGHT: Range = Range::open_closed(0.0, 1e12, "");
 /// Proximal weight on the scaled step: zero (off) up to 1e6.
 const PROXIMAL_WEIGHT: Range = Range::closed(0.0, 1e6, "");
@@ -199,15 +213,11 @@ pub fn scenario(s: &Scenario) -> Result<(), InputError> {
     consistency(s)
 }
 
-/// The name labels outputs, so it must contain a non-blank character. The
-/// reported value is the length of the trimmed name.
+/// The name labels outputs, so it must contain a non-blank character.
 fn name(name: &str) -> Result<(), InputError> {
-    let trimmed = name.trim();
-    if trimmed.is_empty() {
-        return Err(InputError::OutOfRange {
+    if name.trim().is_empty() {
+        return Err(InputError::Empty {
             field: "name".into(),
-            value: trimmed.chars().count() as f64,
-            allowed: "a non-empty string (at least 1 non-blank character)".into(),
         });
     }
     Ok(())
@@ -320,7 +330,7 @@ fn solver(s: &SolverSettings) -> Result<(), InputError> {
         (
             "solver.virtual_control_weight",
             s.virtual_control_weight,
-            WEIGHT,
+            VC_WEIGHT,
         ),
         ("solver.proximal_weight", s.proximal_weight, PROXIMAL_WEIGHT),
         (
@@ -359,8 +369,8 @@ fn solver(s: &SolverSettings) -> Result<(), InputError> {
 /// - T_min ≤ T_max: the throttle interval of Eq. 5 must not be empty;
 /// - m_dry < m0: Eq. 4 requires the final mass above m_dry, and the vehicle
 ///   must carry some propellant; the final-mass guess lies in [m_dry, m0];
-/// - l_cg, l_cp ≤ l_s: both stations are measured along the body from the
-///   gimbal, so they lie on the body;
+/// - l_cp ≤ l_s: measured along the body from the gimbal, it lies on the
+///   body; l_cg within [`CG_FRACTION_MIN`]·l_s of either end (see there);
 /// - |δ(t0)| ≤ δ_max: the initial state must satisfy the gimbal bound;
 /// - z(t0) > z(t_f): the burn starts above the landing point;
 /// - ρ0 < ρ1 < ρ2 and r_min ≤ r_initial ≤ r_max: the trust-region update rule
@@ -371,6 +381,10 @@ fn consistency(s: &Scenario) -> Result<(), InputError> {
     let t = &s.terminal;
     let d = &s.discretization;
     let sv = &s.solver;
+    let (cg_lo, cg_hi) = (
+        CG_FRACTION_MIN * v.length_m,
+        (1.0 - CG_FRACTION_MIN) * v.length_m,
+    );
 
     let checks: [(bool, &str, f64, String); 11] = [
         (
@@ -401,11 +415,12 @@ fn consistency(s: &Scenario) -> Result<(), InputError> {
             ),
         ),
         (
-            v.cg_m <= v.length_m,
+            (cg_lo..=cg_hi).contains(&v.cg_m),
             "vehicle.cg_m",
             v.cg_m,
             format!(
-                "centre of mass lies beyond the body: vehicle.length_m = {} m",
+                "must lie in [{cg_lo:.4}, {cg_hi:.4}] m (between {CG_FRACTION_MIN:.3} and {:.3} of vehicle.length_m = {} m): the pitch inertia of Eq. 22 is that of a body spread over its whole length, which no mass distribution with its centre of mass nearer an end has",
+                1.0 - CG_FRACTION_MIN,
                 v.length_m
             ),
         ),
@@ -476,6 +491,16 @@ fn consistency(s: &Scenario) -> Result<(), InputError> {
         None => Ok(()),
     }
 }
+
+/// Nearest the centre of mass may come to either end of the body, as a
+/// fraction of its length: (1 − √(2/3))/2 ≈ 0.092. The model's pitch inertia
+/// per unit mass (6r² + l²)/12 (Eq. 22) has the axial spread l²/12 of a
+/// uniform body, and a mass distribution on [0, l] with mean l_cg has a
+/// spread of at most l_cg·(l − l_cg) (the Bhatia–Davis inequality), so
+/// l_cg·(l − l_cg) ≥ l²/12. Past it the model is not a rigid body: on the
+/// paper's case l_cg = l_s gave a `solved` plan whose re-flown path ended
+/// 1.1 km below the pad.
+pub const CG_FRACTION_MIN: f64 = 0.091_751_709_536_136_98;
 
 /// Check a table of (field, value, range) rows in order; the first failure wins.
 fn check_all(rows: &[(&str, f64, Range)]) -> Result<(), InputError> {

@@ -477,3 +477,69 @@ fn dispersed_state_reaches_the_nlp_reference() {
         100.0 * gap
     );
 }
+
+/// A path that dips micrometres below the pad is still `solved` (issue 18:
+/// cp_m = 45 dipped 1.5 µm and got `non_physical`); the dip stays within
+/// the ground tolerance.
+#[test]
+fn micrometre_dip_below_the_pad_is_solved() {
+    let sol = solve_paper(|s| s.vehicle.cp_m = 45.0);
+    assert!(
+        sol.checks.min_altitude_margin_m < 0.0,
+        "no dip any more: {:?}",
+        sol.checks
+    );
+    assert!(sol.checks.min_altitude_margin_m >= -bellyflop::scvx::GROUND_TOLERANCE_M);
+    assert_feasible(&sol, "cp_m = 45");
+}
+
+/// With T_min = T_max every reported thrust, the final node's included, is
+/// within the bounds, and the checks cover all of them (issue 18: the final
+/// thrust_n was 2,209,399 N against T_min = 2,210,000 N, unchecked).
+#[test]
+fn every_reported_thrust_is_within_its_bounds() {
+    let sol = solve_paper(|s| s.vehicle.min_thrust_n = s.vehicle.max_thrust_n);
+    assert_feasible(&sol, "T_min = T_max");
+    let t_max = Scenario::paper().vehicle.max_thrust_n;
+    let tol = bellyflop::scvx::THRUST_TOLERANCE_FRAC * t_max;
+    let worst = sol
+        .thrust_n
+        .iter()
+        .fold(0.0f64, |m, &t| m.max((t - t_max).abs()));
+    assert_eq!(sol.thrust_n.len(), sol.nodes + 1);
+    assert!(
+        worst <= tol,
+        "thrust {worst} N off T_max: {:?}",
+        sol.thrust_n
+    );
+    assert!(
+        (sol.checks.thrust_bound_violation_n - worst).abs() <= 1e-9 * t_max,
+        "checks {} N, reported {worst} N",
+        sol.checks.thrust_bound_violation_n
+    );
+}
+
+/// On a coarse mesh `infeasible` says that no trajectory was found on this
+/// mesh and to try more nodes (issue 18: the paper's case at N = 4, the
+/// smallest accepted, blamed the problem; it solves from N = 5 on). On a
+/// fine mesh the message keeps its claim about the problem.
+#[test]
+fn coarse_mesh_infeasibility_suggests_more_nodes() {
+    let sol = solve_paper(|s| s.discretization.nodes = 4);
+    assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
+    assert!(
+        sol.message
+            .starts_with("no trajectory was found on this mesh of N = 4")
+            && sol.message.contains("try more nodes"),
+        "{}",
+        sol.message
+    );
+    let fine = solve_paper(|s| s.initial.z_m = 100.0);
+    assert_eq!(fine.status, Status::Infeasible, "{}", fine.message);
+    assert!(!fine.message.contains("more nodes"), "{}", fine.message);
+    assert!(
+        fine.message.starts_with("no trajectory meets"),
+        "{}",
+        fine.message
+    );
+}

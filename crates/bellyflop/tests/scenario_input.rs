@@ -68,6 +68,7 @@ fn toml_error(text: &str) -> (usize, usize, String, String) {
                 line,
                 column,
                 message,
+                ..
             } = e
             else {
                 unreachable!()
@@ -195,10 +196,10 @@ fn negative_mass_is_out_of_range() {
     ));
     assert_eq!(field, "vehicle.dry_mass_kg");
     assert_eq!(value, -85_000.0);
-    assert_eq!(allowed, "(0, 1e7] kg");
+    assert_eq!(allowed, "[1, 1e7] kg");
     assert_eq!(
         display,
-        "vehicle.dry_mass_kg = -85000 is out of range: allowed (0, 1e7] kg"
+        "vehicle.dry_mass_kg = -85000 is out of range: allowed [1, 1e7] kg"
     );
 
     let (field, value, _, display) =
@@ -253,10 +254,10 @@ fn nan_is_out_of_range() {
         out_of_range(&paper_with("isp_s = 330.0", "isp_s = nan"));
     assert_eq!(field, "vehicle.isp_s");
     assert!(value.is_nan());
-    assert_eq!(allowed, "(0, 1000] s");
+    assert_eq!(allowed, "[1, 1000] s");
     assert_eq!(
         display,
-        "vehicle.isp_s = NaN is out of range: allowed (0, 1000] s"
+        "vehicle.isp_s = NaN is out of range: allowed [1, 1000] s"
     );
 }
 
@@ -268,9 +269,9 @@ fn infinity_is_out_of_range() {
     ));
     assert_eq!(field, "vehicle.max_thrust_n");
     assert_eq!(value, f64::INFINITY);
-    assert_eq!(allowed, "(0, 1e9] N");
+    assert_eq!(allowed, "[1, 1e9] N");
     assert!(display.contains("vehicle.max_thrust_n = inf"), "{display}");
-    assert!(display.contains("(0, 1e9] N"), "{display}");
+    assert!(display.contains("[1, 1e9] N"), "{display}");
 
     // -inf in a field whose range is symmetric.
     let (field, value, allowed, _) = out_of_range(&paper_with("vz_mps = -85.0", "vz_mps = -inf"));
@@ -311,10 +312,10 @@ fn zero_isp_is_out_of_range() {
         out_of_range(&paper_with("isp_s = 330.0", "isp_s = 0.0"));
     assert_eq!(field, "vehicle.isp_s");
     assert_eq!(value, 0.0);
-    assert_eq!(allowed, "(0, 1000] s");
+    assert_eq!(allowed, "[1, 1000] s");
     assert_eq!(
         display,
-        "vehicle.isp_s = 0 is out of range: allowed (0, 1000] s"
+        "vehicle.isp_s = 0 is out of range: allowed [1, 1000] s"
     );
 }
 
@@ -373,11 +374,24 @@ fn terminal_altitude_below_ground_is_out_of_range() {
     assert_eq!(allowed, "[0, 1e5] m");
 }
 
+/// An empty or blank name says so (issue 18: it read "name = 0 is out of
+/// range").
 #[test]
 fn empty_name_is_rejected() {
-    let (field, _, _, display) = out_of_range(&paper_with("name = \"paper\"", "name = \"  \""));
-    assert_eq!(field, "name");
-    assert!(display.contains("non-empty"), "{display}");
+    for name in ["\"\"", "\"  \""] {
+        let e = Scenario::from_toml_str(&paper_with("name = \"paper\"", &format!("name = {name}")))
+            .unwrap_err();
+        assert_eq!(
+            e,
+            InputError::Empty {
+                field: "name".into()
+            }
+        );
+        assert_eq!(
+            e.to_string(),
+            "name must be non-empty (at least one non-blank character)"
+        );
+    }
 }
 
 /// Every numeric field in paper.toml, plus every solver setting, given
@@ -443,6 +457,116 @@ fn every_numeric_field_rejects_non_finite_and_absurd_values() {
                 }
                 other => panic!("{dotted} = {value}: expected OutOfRange, got {other:?}"),
             }
+        }
+    }
+}
+
+/// A gimbal limit that is 0 or subnormal in radians is bad input (issue 18:
+/// 5e-324 deg passed the degree range, became 0 rad and panicked in the
+/// subproblem's bounds).
+#[test]
+fn gimbal_limits_that_vanish_in_radians_are_out_of_range() {
+    for (from, key) in [
+        ("max_gimbal_deg = 20.0", "vehicle.max_gimbal_deg"),
+        (
+            "max_gimbal_rate_degps = 20.0",
+            "vehicle.max_gimbal_rate_degps",
+        ),
+    ] {
+        let name = from.split(' ').next().unwrap();
+        for value in ["5e-324", "1e-300", "0.09"] {
+            let (field, v, allowed, display) =
+                out_of_range(&paper_with(from, &format!("{name} = {value}")));
+            assert_eq!(field, key, "{display}");
+            assert_eq!(v, value.parse::<f64>().unwrap());
+            assert!(allowed.starts_with("[0.1, "), "{display}");
+        }
+    }
+}
+
+/// The smallest accepted gimbal limits give a subproblem that assembles and
+/// solves without a panic.
+#[test]
+fn smallest_gimbal_limits_assemble_and_solve_one_subproblem() {
+    let text = paper_with("max_gimbal_deg = 20.0", "max_gimbal_deg = 0.1").replacen(
+        "max_gimbal_rate_degps = 20.0",
+        "max_gimbal_rate_degps = 0.1",
+        1,
+    );
+    let s = Scenario::from_toml_str(&text).expect("0.1 deg and 0.1 deg/s are accepted");
+    let tr = bellyflop::transcription::Transcription::new(&s);
+    let guess = bellyflop::scvx::straight_line(&tr, 12.0, 110_000.0);
+    let data = tr.assemble(&guess, 0.3, 0.0);
+    let mut conic = bellyflop::conic::ConicSolver::new();
+    // Solved or not, it returns.
+    let _ = tr.solve_with(&mut conic, &data);
+}
+
+/// A virtual-control weight at which Clarabel always fails (1e12 exited 6 on
+/// the paper's case) is out of range; the documented bounds are accepted.
+#[test]
+fn unworkable_virtual_control_weights_are_out_of_range() {
+    for value in ["1e12", "1e7", "0.5"] {
+        let text = format!("{PAPER_TOML}virtual_control_weight = {value}\n");
+        let (field, _, allowed, display) = out_of_range(&text);
+        assert_eq!(field, "solver.virtual_control_weight", "{display}");
+        assert_eq!(allowed, "[1, 1e5]");
+    }
+    for value in ["1.0", "1e5"] {
+        let text = format!("{PAPER_TOML}virtual_control_weight = {value}\n");
+        assert!(Scenario::from_toml_str(&text).is_ok(), "{value}");
+    }
+}
+
+/// The centre of mass at an end of the body (cg_m = length_m gave a `solved`
+/// plan whose re-flown path ended 1.1 km below the pad) is inconsistent with
+/// the model's pitch inertia; the bound is l·(1 − √(2/3))/2 from either end.
+#[test]
+fn centre_of_mass_near_an_end_is_inconsistent() {
+    for cg in ["50.0", "46.0", "4.5", "0.1"] {
+        let (field, value, reason, display) =
+            inconsistent(&paper_with("cg_m = 20.0", &format!("cg_m = {cg}")));
+        assert_eq!(field, "vehicle.cg_m", "{display}");
+        assert_eq!(value, cg.parse::<f64>().unwrap());
+        assert!(reason.contains("[4.5876, 45.4124] m"), "{display}");
+    }
+    for cg in ["4.6", "25.0", "45.4"] {
+        let text = paper_with("cg_m = 20.0", &format!("cg_m = {cg}"));
+        assert!(Scenario::from_toml_str(&text).is_ok(), "cg_m = {cg}");
+    }
+}
+
+/// Values that are positive but vanishing (subnormal, or far below any
+/// vehicle) made the subproblem fail (exit 6); they are bad input now.
+#[test]
+fn vanishing_physical_values_are_out_of_range() {
+    let cases = [
+        (
+            "dry_mass_kg = 85000.0",
+            "vehicle.dry_mass_kg",
+            "[1, 1e7] kg",
+        ),
+        (
+            "max_thrust_n = 2210000.0",
+            "vehicle.max_thrust_n",
+            "[1, 1e9] N",
+        ),
+        ("isp_s = 330.0", "vehicle.isp_s", "[1, 1000] s"),
+        (
+            "g0_mps2 = 9.81",
+            "environment.g0_mps2",
+            "[0.001, 100] m/s^2",
+        ),
+        ("radius_m = 4.5", "vehicle.radius_m", "[0.01, 1000] m"),
+        ("length_m = 50.0", "vehicle.length_m", "[0.01, 1000] m"),
+    ];
+    for (from, field, range) in cases {
+        let key = from.split(' ').next().unwrap();
+        for value in ["5e-324", "1e-8"] {
+            let (f, _, allowed, display) =
+                out_of_range(&paper_with(from, &format!("{key} = {value}")));
+            assert_eq!(f, field, "{display}");
+            assert_eq!(allowed, range, "{display}");
         }
     }
 }

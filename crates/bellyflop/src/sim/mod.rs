@@ -7,6 +7,8 @@
 //!   ([`saturate`]); a fixed-step RK4 integrator with zero-order hold on the
 //!   command and the wind ([`Plant`]); touchdown, propellant and time-limit
 //!   detection ([`Outcome`], [`Touchdown`]).
+//! - [`verdict`]: touchdowns judged `landed`, `hard_landing` or `crash`
+//!   ([`TouchdownLimits`], [`RunOutcome`]).
 //! - [`disturbance`]: the Monte-Carlo dispersions ([`Dispersions`], defaults
 //!   listed there) and one deterministic draw of them ([`Realization`]):
 //!   initial-state offsets, model errors, steady wind plus Gauss–Markov gusts,
@@ -22,12 +24,14 @@
 
 pub mod disturbance;
 pub mod plant;
+pub mod verdict;
 
 pub use disturbance::{Dispersions, InitialOffset, Realization};
 pub use plant::{
     rk4_step, saturate, truth_rhs, Command, Outcome, Plant, PlantConfig, PlantState, Saturation,
     SaturationCounts, StepResult, Touchdown, TruthParams,
 };
+pub use verdict::{RunOutcome, TouchdownLimits};
 
 use crate::error::InputError;
 
