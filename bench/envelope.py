@@ -14,6 +14,10 @@ solver starts from its straight-line guess on the same N-point global LGR mesh.
     bench/envelope.py --box 10 --wide 5 --nodes 20 --table
     bench/envelope.py --methods direct         # skip SCvx
 
+The reference runs with --ground, bellyflop's ground bound z >= z_f, so that
+both solve the same program (without it IPOPT's answer dips below the pad on
+some states, which is not a landing).
+
 Times are each solver's own solve time (ours: `solve_time_ms` of
 `bellyflop solve --json`, the median of --repeat runs; IPOPT: the reference's
 median of --repeat solve calls, build excluded), summed over the states.
@@ -69,7 +73,7 @@ def ours(path, method, repeat):
 
 def reference(path, nodes, repeat):
     out = subprocess.run([str(PY), str(REF), "--scenario", str(path), "--nodes", str(nodes), "--problem", "P2",
-                          "--repeat", str(repeat), "--json"], capture_output=True, text=True).stdout
+                          "--repeat", str(repeat), "--json", "--ground"], capture_output=True, text=True).stdout
     return json.loads(out)
 
 

@@ -235,7 +235,8 @@ class LgrNlp:
     def __init__(self, sc: Scenario, N: int, problem: str,
                  tol: float = 1e-9, max_iter: int = 3000,
                  tf_bounds: tuple[float, float] = (1.0, 100.0),
-                 intervals: int = 1):
+                 intervals: int = 1, ground: bool = False):
+        self.ground = ground
         if problem not in ("P1", "P2"):
             raise ValueError("problem must be P1 or P2")
         self.sc, self.N, self.problem = sc, N, problem
@@ -322,6 +323,10 @@ class LgrNlp:
         lbX[0, :] = ubX[0, :] = np.array(x0_full) / self.x_scale
         # Terminal x, z, Vx, Vz, theta, w fixed (Eq. 4).
         lbX[N, :6] = ubX[N, :6] = sc.xf / self.x_scale[:6]
+        # Optional ground bound z >= z_f at every node after the first (as
+        # bellyflop imposes; the paper states none).
+        if self.ground:
+            lbX[1:, 1] = sc.xf[1] / self.x_scale[1]
         # Mass: m >= m_dry at every node (at t_f this is Eq. 4; elsewhere it is
         # implied because m is monotonically decreasing) and m <= m0.
         lbX[1:, 6] = sc.m_dry / self.x_scale[6]
@@ -466,6 +471,8 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=1,
                     help="solve K times from the same guess; report median solve time")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap.add_argument("--ground", action="store_true",
+                    help="impose z >= z_f at every node after the first (bellyflop's ground bound)")
     ap.add_argument("--tol", type=float, default=1e-9, help="IPOPT tol")
     ap.add_argument("--max-iter", type=int, default=3000, help="IPOPT max_iter")
     ap.add_argument("--p2-delta", choices=["state", "chi"], default="state",
@@ -485,7 +492,7 @@ def main(argv=None) -> int:
                  f"2 collocation points, so M <= {N // 2}")
 
     nlp = LgrNlp(sc, N, args.problem, tol=args.tol, max_iter=args.max_iter,
-                 intervals=M)
+                 intervals=M, ground=args.ground)
     w0 = nlp.initial_guess()
 
     walls, sol, stats = [], None, None

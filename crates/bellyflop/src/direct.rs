@@ -117,6 +117,8 @@ const KAPPA_W_PLUS_FIRST: f64 = 100.0;
 const DELTA_STATIC: f64 = 1e-9;
 /// Dual regularization δ_c = 1e-8·μ^{1/4} when S is singular.
 const DELTA_C: f64 = 1e-8;
+/// Iterative refinement stops once the residual is this fraction of the right-hand side.
+const REFINE_TOL: f64 = 1e-12;
 /// Restoration: iterations, and the factor by which it must reduce θ.
 const RESTORATION_ITERATIONS: usize = 40;
 const RESTORATION_REDUCTION: f64 = 0.9;
@@ -511,7 +513,7 @@ impl<'a> Driver<'a> {
                 worst = worst.max(ws.res_l[r].abs());
             }
             let scale = inf_norm(&ws.rw).max(inf_norm(&ws.rl)).max(1e-300);
-            if worst <= 1e-12 * scale {
+            if worst <= REFINE_TOL * scale {
                 break;
             }
             ws.solver.solve(

@@ -277,6 +277,10 @@ pub struct KktSolver {
     pm: Vec<f64>,
     /// The dense N × (N+1) differentiation matrix, column-major.
     d: Vec<f64>,
+    /// D again, row-major (row i is D_i·), for contiguous row access.
+    d_rows: Vec<f64>,
+    /// R_i[c2][c] by (c2, c), contiguous in i.
+    rt: Vec<f64>,
     /// P = (I ⊗ D)·blockdiag(Q): dim × 8(N+1), column-major.
     p: Vec<f64>,
     /// Per collocation point: R_k = E M Bᵀ and T_k = B M Bᵀ.
@@ -307,6 +311,16 @@ impl KktSolver {
                 }
                 d
             },
+            d_rows: {
+                let mut d = vec![0.0; n * (n + 1)];
+                for (k, col) in nlp.d_cols.iter().enumerate() {
+                    for &(i, v) in col {
+                        d[i * (n + 1) + k] = v;
+                    }
+                }
+                d
+            },
+            rt: vec![0.0; NS * NS * n],
             p: vec![0.0; n * NS * NS * (n + 1)],
             cross: vec![([[0.0; NS]; NS], [[0.0; NS]; NS]); n],
         }
@@ -425,46 +439,57 @@ impl KktSolver {
             }
             self.cross[k] = (rm, tm);
         }
-        // S = Σ_k (d_k d_kᵀ) ⊗ Q_k by eight products, into R's leading block.
+        // −S = −Σ_k (d_k d_kᵀ) ⊗ Q_k by eight products, into R's leading
+        // block; only the blocks on and below the diagonal (c ≥ c2) are
+        // formed, since the factorization reads the lower triangle alone.
         {
             let mut r = MatMut::from_column_major_slice_mut(&mut self.reduced.a[..rd * rd], rd, rd);
             let pm = MatRef::from_column_major_slice(&self.p, dim, NS * nn);
             let d = MatRef::from_column_major_slice(&self.d, n, nn);
             for c2 in 0..NS {
+                let rows = c2 * n;
                 matmul(
-                    r.rb_mut().submatrix_mut(0, c2 * n, dim, n),
+                    r.rb_mut().submatrix_mut(rows, c2 * n, dim - rows, n),
                     Accum::Replace,
-                    pm.subcols(c2 * nn, nn),
+                    pm.subcols(c2 * nn, nn).subrows(rows, dim - rows),
                     d.transpose(),
-                    1.0,
+                    -1.0,
                     Par::Seq,
                 );
             }
         }
-        let r = &mut self.reduced.a;
-        // + D_ik R_k (rows (c, i), cols (c2, k)) and its transpose; + T_k.
-        for k in 0..n {
-            let (rm, tm) = &self.cross[k];
-            for &(i, d) in &nlp.d_cols[k] {
+        // R_i[c2][c] by (c2, c), contiguous in i.
+        for i in 0..n {
+            let ri = &self.cross[i].0;
+            for c2 in 0..NS {
                 for c in 0..NS {
-                    for c2 in 0..NS {
-                        let v = d * rm[c][c2];
-                        r[sm(c2, k) * rd + sm(c, i)] += v;
-                        r[sm(c, i) * rd + sm(c2, k)] += v;
-                    }
-                }
-            }
-            for c in 0..NS {
-                for c2 in 0..NS {
-                    r[sm(c2, k) * rd + sm(c, k)] += tm[c][c2];
+                    self.rt[(c2 * NS + c) * n + i] = ri[c2][c];
                 }
             }
         }
-        // R = [−S g; gᵀ a] (lower triangle read by the factorization).
-        for c in 0..dim {
-            for row in c..dim {
-                r[c * rd + row] = -r[c * rd + row];
+        let r = &mut self.reduced.a;
+        // The cross terms of block (c, c2), column j, row i:
+        // D_ij R_j[c][c2] + D_ji R_i[c2][c], and T_j on the diagonal blocks.
+        // Every operand and write runs contiguously in i.
+        for c2 in 0..NS {
+            for j in 0..n {
+                let base = sm(c2, j) * rd;
+                let (rj, tj) = &self.cross[j];
+                let d_col = &self.d[j * n..(j + 1) * n];
+                let d_row = &self.d_rows[j * nn..j * nn + n];
+                for c in c2..NS {
+                    let col = &mut r[base + c * n..base + (c + 1) * n];
+                    let a_j = rj[c][c2];
+                    let rt = &self.rt[(c2 * NS + c) * n..(c2 * NS + c + 1) * n];
+                    for (((x, dc), dr), t) in col.iter_mut().zip(d_col).zip(d_row).zip(rt) {
+                        *x -= dc * a_j + dr * t;
+                    }
+                    col[j] -= tj[c][c2];
+                }
             }
+        }
+        // R = [−S g; gᵀ a] (lower triangle).
+        for c in 0..dim {
             r[c * rd + c] -= kkt.delta_c;
             r[c * rd + dim] = g[c];
         }
