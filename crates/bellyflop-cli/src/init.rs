@@ -132,6 +132,9 @@ const TRUST_RADIUS: Allowed = open_closed(0.0, 1e6);
 const RHO: Allowed = closed_open(0.0, 1.0);
 const FACTOR: Allowed = open_closed(1.0, 100.0);
 
+/// The accepted values of `solver.method`.
+pub const METHODS: &[&str] = &["direct", "scvx"];
+
 /// The accepted values of `solver.formulation`.
 pub const FORMULATIONS: &[&str] = &["exact", "paper", "vector"];
 
@@ -202,6 +205,14 @@ pub const DOCS: &[Doc] = &[
         "Initial guess of the final time t_f (t_f itself is optimized)."),
     doc!("discretization", "final_mass_guess_kg", "kg", MASS,
         "Final mass of the straight-line initial guess. Within [vehicle.dry_mass_kg, initial.mass_kg]."),
+    doc!("solver", "method", "", Allowed::Choice(METHODS),
+        "Solution method: \"direct\" is the interior-point method on the nonlinear program P2 (default; 2-3x faster than CasADi + IPOPT on the dispersed benchmark, see BENCHMARKS.md); \"scvx\" is the paper's successive convexification."),
+    doc!("solver.direct", "tolerance", "scaled", TOLERANCE,
+        "Convergence: the scaled optimality error (IPOPT's E_0: primal and dual infeasibility, complementarity) below this."),
+    doc!("solver.direct", "max_iterations", "", Allowed::Count { lo: 1, hi: 10_000 },
+        "Interior-point iteration limit; past it the status is not_converged."),
+    doc!("solver.direct", "mu_init", "", open_closed(0.0, 10.0),
+        "Initial barrier parameter mu_0."),
     // SCvx (Section 3.4; trust region of Mao, Szmuk and Acikmese 2016).
     doc!("solver", "formulation", "", Allowed::Choice(FORMULATIONS),
         "Thrust direction: \"exact\" keeps theta + delta in the dynamics (default); \"paper\" is the paper's P4 with the lossless cone and Eq. 27; \"vector\" is the paper's controls with the thrust held on the nozzle axis."),
@@ -255,7 +266,11 @@ const TABLES: &[(&str, &str)] = &[
     ("discretization", "LGR collocation (Section 3.2)."),
     (
         "solver",
-        "Successive convexification (Section 3.4). Optional: a missing key takes its default.",
+        "Solver settings: the method, then successive convexification (Section 3.4). Optional: a missing key takes its default.",
+    ),
+    (
+        "solver.direct",
+        "The direct method: a primal-dual interior-point filter line search on P2 (Wachter & Biegler 2006). Optional.",
     ),
 ];
 
@@ -359,22 +374,34 @@ pub fn template(scenario: &Scenario) -> String {
          # the range given before solving; units are in the key names and comments.\n\
          # Ranges: [a, b] includes both ends, (a, b) excludes them.\n",
     );
-    let mut tables: Vec<&str> = TABLES.iter().map(|(t, _)| *t).collect();
+    // Tables in TABLES' order, then any others; a table's own sub-tables
+    // (e.g. [solver.direct]) follow it.
+    let mut order: Vec<String> = TABLES.iter().map(|(t, _)| t.to_string()).collect();
     for (k, v) in &top {
-        if v.is_object() && !tables.contains(&k.as_str()) {
-            tables.push(k);
+        if v.is_object() && !order.contains(k) {
+            order.push(k.clone());
         }
     }
-    for table in tables {
-        let heading = TABLES.iter().find(|(t, _)| *t == table).map(|(_, h)| *h);
-        let fields: Vec<(&String, &Value)> = if table.is_empty() {
-            top.iter().filter(|(_, v)| !v.is_object()).collect()
-        } else {
-            match top.get(table) {
-                Some(Value::Object(m)) => m.iter().collect(),
-                _ => continue,
-            }
+    let mut tables: Vec<(String, &serde_json::Map<String, Value>)> = Vec::new();
+    for name in &order {
+        if name.is_empty() {
+            tables.push((String::new(), &top));
+            continue;
+        }
+        let Some(Value::Object(m)) = top.get(name) else {
+            continue;
         };
+        tables.push((name.clone(), m));
+        for (k, v) in m {
+            if let Value::Object(sub) = v {
+                tables.push((format!("{name}.{k}"), sub));
+            }
+        }
+    }
+    for (table, map) in tables {
+        let table = table.as_str();
+        let heading = TABLES.iter().find(|(t, _)| *t == table).map(|(_, h)| *h);
+        let fields: Vec<(&String, &Value)> = map.iter().filter(|(_, v)| !v.is_object()).collect();
         out.push('\n');
         if !table.is_empty() {
             comment(&mut out, heading.unwrap_or("(undocumented table)"));
@@ -406,11 +433,11 @@ mod tests {
 
     fn with_field(table: &str, key: &str, value: Value) -> Result<Scenario, String> {
         let mut v = serde_json::to_value(Scenario::paper()).unwrap();
-        if table.is_empty() {
-            v[key] = value;
-        } else {
-            v[table][key] = value;
+        let mut t = &mut v;
+        for part in table.split('.').filter(|p| !p.is_empty()) {
+            t = &mut t[part];
         }
+        t[key] = value;
         serde_json::from_value::<Scenario>(v).map_err(|e| e.to_string())
     }
 
@@ -431,11 +458,11 @@ mod tests {
     fn every_documented_field_exists() {
         let v = serde_json::to_value(Scenario::paper()).unwrap();
         for d in DOCS {
-            let field = if d.table.is_empty() {
-                &v[d.key]
-            } else {
-                &v[d.table][d.key]
-            };
+            let mut field = &v;
+            for part in d.table.split('.').filter(|p| !p.is_empty()) {
+                field = &field[part];
+            }
+            let field = &field[d.key];
             assert!(
                 !field.is_null(),
                 "{}.{} is not a scenario field",

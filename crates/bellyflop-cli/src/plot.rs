@@ -1210,11 +1210,22 @@ fn tick(v: f64) -> String {
 /// One convergence panel.
 struct Convergence {
     caption: &'static str,
-    value: fn(&bellyflop::solution::IterationRecord) -> f64,
+    values: Vec<f64>,
     /// A tolerance drawn as a horizontal line.
     tolerance: Option<(f64, &'static str)>,
     /// Log scale when every value is positive (or always, clamping).
     log: LogScale,
+}
+
+/// The iterations the panels share: their numbers and whether each step
+/// was accepted (SCvx) or a regular step (the direct method: false marks a
+/// restoration step).
+struct Iterations {
+    x: Vec<f64>,
+    accepted: Vec<bool>,
+    /// Axis name, and the marker names of accepted and other steps.
+    axis: &'static str,
+    names: (&'static str, &'static str),
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -1227,57 +1238,114 @@ enum LogScale {
 
 fn draw_convergence<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, d: &PlotData) -> Res<DB> {
     root.fill(&WHITE)?;
+    let (title, iterations, panels) = match d.solution.method {
+        bellyflop::Method::Scvx => scvx_panels(d),
+        bellyflop::Method::Direct => direct_panels(d),
+    };
     let root = root.titled(
-        &format!("SCvx convergence — {}", d.title()),
+        &format!("{title} — {}", d.title()),
         (FONT, 22).into_font().style(FontStyle::Bold),
     )?;
+    let areas = root.split_evenly((2, 2));
+    for (i, (area, c)) in areas.iter().zip(&panels).enumerate() {
+        draw_convergence_panel(area, &iterations, c, i == 0)?;
+    }
+    Ok(())
+}
+
+/// Virtual control, step, cost and trust radius per SCvx iteration.
+fn scvx_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
     let sv = &d.scenario.solver;
+    let h = &d.solution.history;
+    let values = |f: fn(&bellyflop::solution::IterationRecord) -> f64| h.iter().map(f).collect();
+    let iterations = Iterations {
+        x: h.iter().map(|r| r.iteration as f64).collect(),
+        accepted: h.iter().map(|r| r.accepted).collect(),
+        axis: "SCvx iteration",
+        names: ("accepted step", "rejected step"),
+    };
     let panels = [
         Convergence {
             caption: "virtual control, max |ν| (scaled)",
-            value: |r| r.virtual_control,
+            values: values(|r| r.virtual_control),
             tolerance: Some((sv.virtual_control_tolerance, "tolerance")),
             log: LogScale::Always,
         },
         Convergence {
             caption: "step, max |Δz| (scaled)",
-            value: |r| r.step,
+            values: values(|r| r.step),
             tolerance: Some((sv.step_tolerance, "tolerance")),
             log: LogScale::Always,
         },
         Convergence {
             caption: "cost J, penalized (scaled)",
-            value: |r| r.cost,
+            values: values(|r| r.cost),
             tolerance: None,
             log: LogScale::IfPositive,
         },
         Convergence {
             caption: "trust-region radius (scaled)",
-            value: |r| r.trust_radius,
+            values: values(|r| r.trust_radius),
             tolerance: Some((sv.trust_region_min, "minimum")),
             log: LogScale::Always,
         },
     ];
-    let areas = root.split_evenly((2, 2));
-    for (i, (area, c)) in areas.iter().zip(&panels).enumerate() {
-        draw_convergence_panel(area, d, c, i == 0)?;
-    }
-    Ok(())
+    ("SCvx convergence", iterations, panels)
+}
+
+/// Primal and dual infeasibility, μ and the step length per interior-point
+/// iteration.
+fn direct_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
+    let tol = d.scenario.solver.direct.tolerance;
+    let h = &d.solution.direct_history;
+    let values = |f: fn(&bellyflop::direct::DirectIteration) -> f64| h.iter().map(f).collect();
+    let iterations = Iterations {
+        x: h.iter().map(|r| r.iteration as f64).collect(),
+        accepted: h.iter().map(|r| !r.restoration).collect(),
+        axis: "interior-point iteration",
+        names: ("Newton step", "restoration step"),
+    };
+    let panels = [
+        Convergence {
+            caption: "primal infeasibility, max |defect| (scaled)",
+            values: values(|r| r.primal_infeasibility),
+            tolerance: Some((tol, "tolerance")),
+            log: LogScale::Always,
+        },
+        Convergence {
+            caption: "dual infeasibility, max |∇L| (scaled)",
+            values: values(|r| r.dual_infeasibility),
+            tolerance: Some((tol, "tolerance")),
+            log: LogScale::Always,
+        },
+        Convergence {
+            caption: "barrier parameter μ",
+            values: values(|r| r.mu),
+            tolerance: None,
+            log: LogScale::Always,
+        },
+        Convergence {
+            caption: "step length α",
+            values: values(|r| r.step),
+            tolerance: None,
+            log: LogScale::Always,
+        },
+    ];
+    ("Interior-point convergence", iterations, panels)
 }
 
 fn draw_convergence_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
-    d: &PlotData,
+    its: &Iterations,
     c: &Convergence,
     legend: bool,
 ) -> Res<DB> {
-    let h = &d.solution.history;
-    let raw: Vec<f64> = h.iter().map(c.value).collect();
+    let raw = &c.values;
     let all_positive = raw.iter().all(|v| *v > 0.0 && v.is_finite());
     let log = c.log == LogScale::Always || all_positive;
-    let n = h.len().max(1) as f64;
+    let n = its.x.len().max(1) as f64;
     let x_range = 0.5..n + 0.5;
-    let iter_x = |i: usize| h.get(i).map_or(i as f64 + 1.0, |r| r.iteration as f64);
+    let iter_x = |i: usize| its.x.get(i).copied().unwrap_or(i as f64 + 1.0);
 
     if log {
         // Clamp values ≤ 0 (or tiny) to a floor under the smallest positive one.
@@ -1305,7 +1373,7 @@ fn draw_convergence_panel<DB: DrawingBackend>(
             .build_cartesian_2d(x_range, (lo..hi).log_scale())?;
         chart
             .configure_mesh()
-            .x_desc("SCvx iteration")
+            .x_desc(its.axis)
             .y_desc("dimensionless, log scale")
             .label_style(text(13.0))
             .axis_desc_style(text(14.0))
@@ -1331,7 +1399,7 @@ fn draw_convergence_panel<DB: DrawingBackend>(
             .map(|(i, (v, _))| (iter_x(i), *v))
             .collect();
         chart.draw_series(LineSeries::new(pts.clone(), SOLUTION.stroke_width(1)))?;
-        draw_markers(&mut chart, d, &pts, legend)?;
+        draw_markers(&mut chart, its, &pts, legend)?;
         let clamped: Vec<(f64, f64)> = vals
             .iter()
             .enumerate()
@@ -1363,7 +1431,7 @@ fn draw_convergence_panel<DB: DrawingBackend>(
             .build_cartesian_2d(x_range, padded(lo, hi, 0.07))?;
         chart
             .configure_mesh()
-            .x_desc("SCvx iteration")
+            .x_desc(its.axis)
             .label_style(text(13.0))
             .axis_desc_style(text(14.0))
             .light_line_style(RGBColor(238, 238, 238))
@@ -1377,16 +1445,16 @@ fn draw_convergence_panel<DB: DrawingBackend>(
             .map(|(i, v)| (iter_x(i), *v))
             .collect();
         chart.draw_series(LineSeries::new(pts.clone(), SOLUTION.stroke_width(1)))?;
-        draw_markers(&mut chart, d, &pts, legend)?;
+        draw_markers(&mut chart, its, &pts, legend)?;
         finish_legend(&mut chart, legend)?;
     }
     Ok(())
 }
 
-/// Accepted iterations as filled circles, rejected ones as red crosses.
+/// Accepted (regular) iterations as filled circles, the others as red crosses.
 fn draw_markers<'a, DB: DrawingBackend + 'a, X, Y>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
-    d: &PlotData,
+    its: &Iterations,
     pts: &[(f64, f64)],
     legend: bool,
 ) -> Res<DB>
@@ -1394,25 +1462,24 @@ where
     X: Ranged<ValueType = f64>,
     Y: Ranged<ValueType = f64>,
 {
-    let h = &d.solution.history;
     let acc = chart.draw_series(
         pts.iter()
-            .zip(h)
-            .filter(|(_, r)| r.accepted)
+            .zip(&its.accepted)
+            .filter(|(_, a)| **a)
             .map(|(&p, _)| Circle::new(p, 4, SOLUTION.filled())),
     )?;
     if legend {
-        acc.label("accepted step")
+        acc.label(its.names.0)
             .legend(|(x, y)| Circle::new((x + 11, y), 4, SOLUTION.filled()));
     }
     let rej = chart.draw_series(
         pts.iter()
-            .zip(h)
-            .filter(|(_, r)| !r.accepted)
+            .zip(&its.accepted)
+            .filter(|(_, a)| !**a)
             .map(|(&p, _)| Cross::new(p, 5, REJECTED.stroke_width(2))),
     )?;
     if legend {
-        rej.label("rejected step")
+        rej.label(its.names.1)
             .legend(|(x, y)| Cross::new((x + 11, y), 5, REJECTED.stroke_width(2)));
     }
     Ok(())

@@ -86,22 +86,51 @@ fn missing_file_is_bad_input() {
 #[test]
 fn infeasible_case_exits_3_with_reason() {
     let path = write_scenario("low.toml", |t| t.replace("z_m = 600.0", "z_m = 100.0"));
-    let (code, stdout, _) = bellyflop(&["solve", "--json", "--scenario", path.to_str().unwrap()]);
-    assert_eq!(code, 3);
-    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
-    assert_eq!(v["status"], "infeasible");
-    assert!(v["message"].as_str().unwrap().contains("no trajectory"));
+    for method in ["scvx", "direct"] {
+        let (code, stdout, _) = bellyflop(&[
+            "solve",
+            "--json",
+            "--method",
+            method,
+            "--scenario",
+            path.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 3, "{method}");
+        let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        assert_eq!(v["status"], "infeasible", "{method}");
+        assert!(
+            v["message"].as_str().unwrap().contains("no trajectory"),
+            "{method}: {}",
+            v["message"]
+        );
+    }
 }
 
 #[test]
 fn iteration_limit_exits_4() {
+    // SCvx's limit, and the direct method's own.
     let path = write_scenario("short.toml", |t| {
         t.replace("max_iterations = 100", "max_iterations = 2")
+            + "\n[solver.direct]\nmax_iterations = 3\n"
     });
-    let (code, stdout, _) = bellyflop(&["solve", "--json", "--scenario", path.to_str().unwrap()]);
-    assert_eq!(code, 4);
-    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
-    assert_eq!(v["status"], "not_converged");
+    for method in ["scvx", "direct"] {
+        let (code, stdout, _) = bellyflop(&[
+            "solve",
+            "--json",
+            "--method",
+            method,
+            "--scenario",
+            path.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 4, "{method}");
+        let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        assert_eq!(v["status"], "not_converged", "{method}");
+        assert_eq!(v["method"], method);
+        assert!(
+            v["message"].as_str().unwrap().contains("iterate"),
+            "{method}"
+        );
+    }
 }
 
 /// Issue 18's messages: each names the problem, and each is bad input (2).

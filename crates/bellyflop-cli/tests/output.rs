@@ -194,12 +194,26 @@ fn quiet_suppresses_progress_and_file_list() {
 
 #[test]
 fn progress_lines_name_iteration_cost_step_vc_radius_ms() {
-    let (code, _, stderr) = bellyflop(&["solve", "--nodes", "10"]);
+    let (code, _, stderr) = bellyflop(&["solve", "--nodes", "10", "--method", "scvx"]);
     assert_eq!(code, 0);
     let lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("iter")).collect();
     assert!(!lines.is_empty(), "{stderr}");
     for l in lines {
         for field in [" J ", " step ", " vc ", " radius ", " ms"] {
+            assert!(l.contains(field), "{l}");
+        }
+    }
+}
+
+/// The direct method's progress: infeasibilities, μ, step, regularization.
+#[test]
+fn direct_progress_lines_name_infeasibility_mu_step_and_regularization() {
+    let (code, _, stderr) = bellyflop(&["solve", "--nodes", "10", "--method", "direct"]);
+    assert_eq!(code, 0);
+    let lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("iter")).collect();
+    assert!(lines.len() >= 5, "{stderr}");
+    for l in lines {
+        for field in [" inf_pr ", " inf_du ", " mu ", " alpha ", " reg ", " ms"] {
             assert!(l.contains(field), "{l}");
         }
     }

@@ -967,7 +967,7 @@ impl<'a> Driver<'a> {
             }
             if !accepted {
                 return Err(format!(
-                    "locally infeasible: the feasibility restoration stalled at a defect of {:.2e} (scaled, sum over the collocation equations)",
+                    "locally infeasible: no trajectory near this one meets the dynamics and boundary conditions; the feasibility restoration stalled at a defect of {:.2e} (scaled, summed over the collocation equations)",
                     theta0
                 ));
             }
@@ -985,7 +985,7 @@ impl<'a> Driver<'a> {
             }
         }
         Err(format!(
-            "locally infeasible: {RESTORATION_ITERATIONS} restoration iterations reduced the defect from {theta_start:.2e} to {:.2e} only",
+            "locally infeasible: no trajectory near this one meets the dynamics and boundary conditions; {RESTORATION_ITERATIONS} restoration iterations reduced the defect from {theta_start:.2e} to {:.2e} only",
             l1_norm(&self.ws.c)
         ))
     }

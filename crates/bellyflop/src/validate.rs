@@ -174,6 +174,8 @@ const RELAXED_FIRST_ITERATIONS: (usize, usize) = (0, 10_000);
 /// gap 1 − ‖T‖/σ: strictly between 0 (never reached in floating point) and 1
 /// (no accuracy at all).
 const TOLERANCE: Range = Range::open(0.0, 1.0, "");
+/// Initial barrier parameter of the direct method.
+const MU_INIT: Range = Range::open_closed(0.0, 10.0, "");
 /// Exact-penalty weight λ on the virtual control: 1 to 1e5. Measured with
 /// `bellyflop solve` on the paper's case in all three formulations (relaxed
 /// first phase on and off): 1 to 1e6 solve; 3e6 and 1e7 fail in some
@@ -314,6 +316,15 @@ fn discretization(d: &Discretization) -> Result<(), InputError> {
 /// [`TRUST_RADIUS`], [`RHO`], [`FACTOR`].
 fn solver(s: &SolverSettings) -> Result<(), InputError> {
     count_in_range("solver.max_iterations", s.max_iterations, MAX_ITERATIONS)?;
+    count_in_range(
+        "solver.direct.max_iterations",
+        s.direct.max_iterations,
+        MAX_ITERATIONS,
+    )?;
+    check_all(&[
+        ("solver.direct.tolerance", s.direct.tolerance, TOLERANCE),
+        ("solver.direct.mu_init", s.direct.mu_init, MU_INIT),
+    ])?;
     count_in_range(
         "solver.relaxed_first_iterations",
         s.relaxed_first_iterations,

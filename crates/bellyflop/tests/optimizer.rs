@@ -1,7 +1,8 @@
 //! The core optimizer against the paper's numbers (issue 2, "Must show").
 
+use bellyflop::scvx::solve;
 use bellyflop::scvx::Silent;
-use bellyflop::{solve, Formulation, Scenario, Solution, Status};
+use bellyflop::{Formulation, Scenario, Solution, Status};
 
 /// Table 3, SCvx row.
 const PAPER_TF_S: f64 = 11.5666;
