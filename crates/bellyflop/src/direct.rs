@@ -19,6 +19,8 @@
 //! The driver is [`solve_nlp`]; each iteration is reported to an
 //! [`Observer`] as a [`DirectIteration`].
 
+#![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
+
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};

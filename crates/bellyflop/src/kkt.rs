@@ -32,6 +32,8 @@
 //! sparse factorization's fill-in. Everything is allocated in
 //! [`KktSolver::new`]; factoring and solving allocate nothing.
 
+#![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
+
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::lblt;
 use faer::linalg::matmul::matmul;
@@ -40,6 +42,9 @@ use faer::reborrow::ReborrowMut;
 use faer::{Accum, ColMut, ColRef, MatMut, MatRef, Par};
 
 use crate::nlp::{Nlp, NL, NS};
+
+/// An 8×8 block over the states.
+type Block8 = [[f64; NS]; NS];
 
 /// The blocks of one Newton system (scaled units), set by the caller.
 #[derive(Debug, Clone)]
@@ -284,7 +289,7 @@ pub struct KktSolver {
     /// P = (I ⊗ D)·blockdiag(Q): dim × 8(N+1), column-major.
     p: Vec<f64>,
     /// Per collocation point: R_k = E M Bᵀ and T_k = B M Bᵀ.
-    cross: Vec<([[f64; NS]; NS], [[f64; NS]; NS])>,
+    cross: Vec<(Block8, Block8)>,
 }
 
 impl KktSolver {

@@ -18,6 +18,8 @@
 //! inputs that enter f nonlinearly (Vx, Vz, θ, m, δ, T); the linear entries
 //! θ̇ = w and δ̇ = χ are added by hand.
 
+#![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
+
 use num_dual::Dual2SVec64;
 
 use crate::dynamics::{self, Model};

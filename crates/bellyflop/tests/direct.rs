@@ -1,0 +1,186 @@
+//! The direct method against the CasADi + IPOPT reference on the same
+//! transcription (issue 15, "Tests").
+//!
+//! The reference values are IPOPT's optima of P2 with bellyflop's ground
+//! bound, from `bench/reference/nlp_reference.py --scenario F --nodes N
+//! --problem P2 --ground [--intervals M]` (tol 1e-9), measured on 2026-12-01.
+
+use bellyflop::direct::{self, DirectSettings};
+use bellyflop::nlp::Nlp;
+use bellyflop::scvx::Silent;
+use bellyflop::{solve, Method, Scenario, Solution, Status};
+
+fn direct_paper(edit: impl FnOnce(&mut Scenario)) -> Solution {
+    let mut s = Scenario::paper();
+    s.solver.method = Method::Direct;
+    edit(&mut s);
+    s.validate().expect("test scenario is valid");
+    solve(&s, &mut Silent)
+}
+
+/// Solved, on IPOPT's optimum within 0.1 kg, and meets the collocation
+/// equations of the nonlinear problem.
+fn assert_reference(sol: &Solution, mass_kg: f64, tf_s: f64, what: &str) {
+    assert_eq!(sol.status, Status::Solved, "{what}: {}", sol.message);
+    assert_eq!(sol.method, Method::Direct);
+    assert!(
+        (sol.final_mass_kg - mass_kg).abs() < 0.1,
+        "{what}: m_f {} against IPOPT's {mass_kg}",
+        sol.final_mass_kg
+    );
+    assert!(
+        (sol.tf_s - tf_s).abs() < 1e-3,
+        "{what}: t_f {} against IPOPT's {tf_s}",
+        sol.tf_s
+    );
+    assert!(
+        sol.checks.max_defect < 1e-7,
+        "{what}: defect {}",
+        sol.checks.max_defect
+    );
+    assert!(sol.checks.min_altitude_margin_m >= -1e-9, "{what}");
+    assert!(sol.checks.thrust_bound_violation_n <= 1e-6, "{what}");
+    assert_eq!(sol.iterations, sol.direct_history.len());
+    assert!(sol.history.is_empty(), "no SCvx history");
+}
+
+#[test]
+fn paper_case_reaches_the_ipopt_optimum_at_n20_and_n40() {
+    for (n, mass, tf) in [(20, 114_569.455, 11.56895), (40, 114_575.296, 11.56058)] {
+        let sol = direct_paper(|s| s.discretization.nodes = n);
+        assert_reference(&sol, mass, tf, &format!("N = {n}"));
+    }
+}
+
+#[test]
+fn hp_mesh_reaches_the_ipopt_optimum() {
+    let sol = direct_paper(|s| s.discretization.intervals = 4);
+    assert_reference(&sol, 114_574.792, 11.56338, "N = 20, M = 4");
+}
+
+#[test]
+fn six_dispersed_states_reach_the_ipopt_optimum() {
+    // x0 [m], z0 [m], vx0, vz0 [m/s], theta0 [deg], m0 [kg]; IPOPT's m_f, t_f.
+    let cases = [
+        (
+            [-200.0, 500.0, 15.0, -70.0, 80.0, 110_000.0],
+            103_317.99,
+            14.01242,
+        ),
+        (
+            [200.0, 800.0, -15.0, -95.0, 95.0, 125_000.0],
+            118_749.67,
+            14.50382,
+        ),
+        (
+            [0.0, 650.0, 0.0, -80.0, 88.0, 118_000.0],
+            112_129.68,
+            12.61052,
+        ),
+        (
+            [150.0, 550.0, 10.0, -90.0, 85.0, 122_000.0],
+            115_758.17,
+            10.99321,
+        ),
+        (
+            [-120.0, 750.0, -8.0, -75.0, 92.0, 112_000.0],
+            105_135.60,
+            15.61072,
+        ),
+        (
+            [60.0, 700.0, 5.0, -88.0, 82.0, 124_000.0],
+            118_092.66,
+            13.25504,
+        ),
+    ];
+    for (x, mass, tf) in cases {
+        let sol = direct_paper(|s| {
+            let i = &mut s.initial;
+            (i.x_m, i.z_m, i.vx_mps, i.vz_mps, i.theta_deg, i.mass_kg) =
+                (x[0], x[1], x[2], x[3], x[4], x[5]);
+            s.discretization.final_mass_guess_kg = x[5] - 5000.0;
+        });
+        assert_reference(&sol, mass, tf, &format!("{x:?}"));
+        // IPOPT's t_f agrees to 5e-4 s on these (the optimum is flat in t_f).
+    }
+}
+
+#[test]
+fn too_low_to_stop_is_infeasible_with_a_reason() {
+    let sol = direct_paper(|s| s.initial.z_m = 100.0);
+    assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
+    assert!(
+        sol.message.contains("locally infeasible"),
+        "{}",
+        sol.message
+    );
+    assert!(sol.trajectory.is_finite());
+}
+
+#[test]
+fn iteration_limit_is_not_converged_with_the_last_iterate() {
+    let sol = direct_paper(|s| s.solver.direct.max_iterations = 4);
+    assert_eq!(sol.status, Status::NotConverged);
+    assert_eq!(sol.iterations, 4);
+    assert!(
+        sol.message.contains("4 interior-point iterations"),
+        "{}",
+        sol.message
+    );
+    assert!(sol.trajectory.is_finite());
+    assert!(
+        sol.checks.max_defect > 1e-6,
+        "not yet feasible after 4 iterations"
+    );
+}
+
+/// Every iteration's record is filled in: the infeasibilities fall to the
+/// tolerance, μ never rises, and the steps lie in (0, 1].
+#[test]
+fn history_records_the_interior_point_iterations() {
+    let sol = direct_paper(|_| ());
+    let h = &sol.direct_history;
+    assert!(h.len() >= 5);
+    assert!(h.windows(2).all(|w| w[1].mu <= w[0].mu));
+    assert!(h
+        .iter()
+        .all(|r| r.restoration || (r.step > 0.0 && r.step <= 1.0)));
+    let last = h.last().unwrap();
+    assert!(last.primal_infeasibility < 1e-5 && last.dual_infeasibility < 1e-5);
+    assert!(
+        h[0].primal_infeasibility > 1e-2,
+        "the straight line is infeasible"
+    );
+}
+
+/// A warm start from the solution with its multipliers converges at once.
+#[test]
+fn warm_start_from_the_answer_converges_in_a_few_iterations() {
+    let mut s = Scenario::paper();
+    s.solver.method = Method::Direct;
+    let nlp = Nlp::new(&s);
+    let w0 = nlp.straight_line(
+        s.discretization.tf_guess_s,
+        s.discretization.final_mass_guess_kg,
+    );
+    let cold = direct::solve_nlp(&nlp, &w0, None, &DirectSettings::default(), &mut Silent);
+    assert_eq!(cold.status, Status::Solved);
+    let warm_settings = DirectSettings {
+        mu_init: 1e-6,
+        ..DirectSettings::default()
+    };
+    let warm = direct::solve_nlp(
+        &nlp,
+        &cold.w,
+        Some(&cold.lambda),
+        &warm_settings,
+        &mut Silent,
+    );
+    assert_eq!(warm.status, Status::Solved, "{}", warm.message);
+    assert!(
+        warm.history.len() * 2 < cold.history.len(),
+        "warm {} against cold {} iterations",
+        warm.history.len(),
+        cold.history.len()
+    );
+}
