@@ -84,7 +84,8 @@ def main():
     ap.add_argument("--seed", type=int, default=15)
     ap.add_argument("--nodes", type=int, action="append", help="N (repeatable; default 20 and 40)")
     ap.add_argument("--methods", default="direct,scvx")
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=3, help="timing runs of IPOPT and the direct method")
+    ap.add_argument("--scvx-repeat", type=int, default=1, help="timing runs of SCvx (10x slower)")
     ap.add_argument("--table", action="store_true", help="one line per state")
     args = ap.parse_args()
     nodes = args.nodes or [20, 40]
@@ -93,7 +94,7 @@ def main():
         subprocess.run(["cargo", "build", "--release"], cwd=ROOT, check=True)
     if not PY.exists():
         sys.exit("bench/reference/.venv is missing: run bench/compare.sh once to create it")
-    print(f"seed {args.seed}: {args.box} box + {args.wide} wide states; repeat {args.repeat}")
+    print(f"seed {args.seed}: {args.box} box + {args.wide} wide states; repeat {args.repeat} (SCvx {args.scvx_repeat})")
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "state.toml"
         for n in nodes:
@@ -101,7 +102,7 @@ def main():
             for name, state in states(args.box, args.wide, args.seed):
                 path.write_text(scenario_text(state, n))
                 ref = reference(path, n, args.repeat)
-                got = {m: ours(path, m, args.repeat) for m in methods}
+                got = {m: ours(path, m, args.scvx_repeat if m == "scvx" else args.repeat) for m in methods}
                 rows.append((name, state, ref, got))
                 if args.table:
                     cols = " | ".join("%s %-13s %3d its %7.1f ms %10.1f" % (

@@ -17,9 +17,12 @@ use bellyflop::{Formulation, Scenario};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};
 
 /// The paper's case at `n` LGR points.
+/// (SCvx: these benchmarks are of its building blocks; `benches/kkt.rs` has
+/// the direct method.)
 fn paper(n: usize) -> Scenario {
     let mut s = Scenario::paper();
     s.discretization.nodes = n;
+    s.solver.method = bellyflop::Method::Scvx;
     s
 }
 

@@ -441,7 +441,14 @@ impl<'a> Driver<'a> {
     /// δ_c > 0 once K is singular.
     fn factor(&mut self) -> Result<(), String> {
         let h_tt = self.ws.kkt.h_tt;
-        let mut delta_w = 0.0;
+        // After an iteration that needed a correction, start from a third of
+        // it instead of from 0 (which would almost surely fail again and cost
+        // a factorization).
+        let mut delta_w = if self.inertia > 0.0 {
+            (KAPPA_W_MINUS * self.delta_w_last).max(DELTA_W_MIN)
+        } else {
+            0.0
+        };
         let mut delta_c = 0.0;
         loop {
             let inertia = self.factor_with(delta_w, delta_c, h_tt);

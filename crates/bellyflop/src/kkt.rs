@@ -75,6 +75,81 @@ impl KktMatrix {
         }
     }
 
+    /// The upper triangle of K as triplets (row, column, value) over the
+    /// free variables (full-vector order, t̂_f last) and then the
+    /// multipliers: the matrix a general sparse LDLᵀ would factor. Returns
+    /// the number of free variables, the dimension and the triplets.
+    #[allow(clippy::type_complexity)]
+    pub fn upper_triplets(&self, nlp: &Nlp) -> (usize, usize, Vec<usize>, Vec<usize>, Vec<f64>) {
+        let nv = nlp.n_var();
+        let mut index = vec![usize::MAX; nv];
+        let mut nf = 0;
+        for (j, ix) in index.iter_mut().enumerate() {
+            if !nlp.is_fixed(j) {
+                *ix = nf;
+                nf += 1;
+            }
+        }
+        let dim = nf + nlp.n_con();
+        let (mut ri, mut ci, mut vv) = (Vec::new(), Vec::new(), Vec::new());
+        let mut push = |r: usize, c: usize, v: f64| {
+            ri.push(r.min(c));
+            ci.push(r.max(c));
+            vv.push(v);
+        };
+        let tf = index[nlp.tf_idx()];
+        for k in 0..=nlp.n {
+            for r in 0..NL {
+                let jr = index[nlp.idx(k, r)];
+                if jr == usize::MAX {
+                    continue;
+                }
+                for c in r..NL {
+                    let jc = index[nlp.idx(k, c)];
+                    if jc != usize::MAX {
+                        push(jr, jc, self.w[k][r][c]);
+                    }
+                }
+                push(jr, tf, self.h_t[k][r]);
+            }
+        }
+        push(tf, tf, self.h_tt);
+        for i in 0..nlp.n {
+            let (first, row) = nlp.mesh.d_row(i);
+            for c in 0..NS {
+                let l = nf + i * NS + c;
+                // D and B may both touch the point's own state: sum them.
+                let mut entries: Vec<(usize, f64)> = Vec::new();
+                for (j, d) in row.iter().enumerate() {
+                    entries.push((nlp.idx(first + j, c), *d));
+                }
+                for s in 0..NL {
+                    entries.push((nlp.idx(i, s), self.b[i][c][s]));
+                }
+                entries.sort_by_key(|e| e.0);
+                let mut last: Option<(usize, f64)> = None;
+                for (j, v) in entries
+                    .into_iter()
+                    .chain(std::iter::once((usize::MAX, 0.0)))
+                {
+                    match last {
+                        Some((lj, lv)) if lj == j => last = Some((lj, lv + v)),
+                        Some((lj, lv)) => {
+                            if index[lj] != usize::MAX {
+                                push(index[lj], l, lv);
+                            }
+                            last = (j != usize::MAX).then_some((j, v));
+                        }
+                        None => last = Some((j, v)),
+                    }
+                }
+                push(tf, l, self.j_t[i][c]);
+                push(l, l, -self.delta_c);
+            }
+        }
+        (nf, dim, ri, ci, vv)
+    }
+
     /// y ← K·x over the full vector layout (fixed slots: zero), for the
     /// residuals of iterative refinement and the tests.
     pub fn multiply(&self, nlp: &Nlp, x_w: &[f64], x_l: &[f64], y_w: &mut [f64], y_l: &mut [f64]) {

@@ -1,0 +1,155 @@
+//! The direct method's Newton (KKT) solve against QDLDL on the same matrix,
+//! and the direct method's cold solve against SCvx's (issue 15).
+//!
+//! `cargo bench -p bellyflop --bench kkt`
+//!
+//! The matrix is the Newton system at the 5th iterate of a cold direct solve
+//! of the paper's case: the Hessian of the Lagrangian, the barrier terms
+//! μ/s² (μ = 0.1, the iterate's barrier) and the defect Jacobian.
+//! - `kkt/structured`: our factorization (node blocks, then the reduced
+//!   system by faer's dense Bunch–Kaufman) and one solve;
+//! - `kkt/qdldl`: Clarabel's QDLDL, numeric refactorization (its symbolic
+//!   AMD analysis done once, outside the loop) and one solve, of the same
+//!   matrix's upper triangle. QDLDL does not pivot: on this indefinite
+//!   matrix it runs, but it reports no inertia, which the interior-point
+//!   method needs; the comparison is of cost.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use bellyflop::direct::{self, lagrangian_blocks, DirectSettings};
+use bellyflop::kkt::{KktMatrix, KktSolver};
+use bellyflop::nlp::{Nlp, NL, NS};
+use bellyflop::scvx::Silent;
+use bellyflop::{Method, Scenario, Status};
+use clarabel::algebra::CscMatrix;
+use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};
+
+fn paper(n: usize) -> Scenario {
+    let mut s = Scenario::paper();
+    s.discretization.nodes = n;
+    s
+}
+
+/// The Newton system at the 5th iterate of a cold direct solve.
+fn system(n: usize) -> (Nlp, KktMatrix) {
+    let s = paper(n);
+    let nlp = Nlp::new(&s);
+    let d = &s.discretization;
+    let w0 = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
+    let settings = DirectSettings {
+        max_iterations: 5,
+        ..DirectSettings::default()
+    };
+    let r = direct::solve_nlp(&nlp, &w0, None, &settings, &mut Silent);
+    let derivs: Vec<_> = (0..nlp.n)
+        .map(|i| nlp.point_derivatives(&r.w, i, &r.lambda[i * NS..(i + 1) * NS]))
+        .collect();
+    let mut kkt = KktMatrix::zeros(&nlp);
+    lagrangian_blocks(&nlp, &r.w, &r.lambda, &derivs, &mut kkt);
+    let mu = 0.1;
+    let sigma = |j: usize| {
+        let mut s = 1e-9;
+        if !nlp.is_fixed(j) {
+            if nlp.lo[j].is_finite() {
+                s += mu / (r.w[j] - nlp.lo[j]).powi(2);
+            }
+            if nlp.hi[j].is_finite() {
+                s += mu / (nlp.hi[j] - r.w[j]).powi(2);
+            }
+        }
+        s
+    };
+    for k in 0..=nlp.n {
+        for sl in 0..NL {
+            kkt.w[k][sl][sl] += sigma(nlp.idx(k, sl));
+        }
+    }
+    kkt.h_tt = sigma(nlp.tf_idx());
+    (nlp, kkt)
+}
+
+fn kkt_solve(c: &mut Criterion) {
+    let mut g = c.benchmark_group("kkt");
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(3));
+    for n in [20, 40] {
+        let (nlp, kkt) = system(n);
+        let rw: Vec<f64> = (0..nlp.n_var())
+            .map(|j| {
+                if nlp.is_fixed(j) {
+                    0.0
+                } else {
+                    (j as f64 * 0.3).sin()
+                }
+            })
+            .collect();
+        let rl: Vec<f64> = (0..nlp.n_con()).map(|r| (r as f64 * 0.7).cos()).collect();
+        let mut solver = KktSolver::new(&nlp);
+        let (mut xw, mut xl) = (vec![0.0; nlp.n_var()], vec![0.0; nlp.n_con()]);
+        g.bench_with_input(BenchmarkId::new("structured", n), &n, |b, _| {
+            b.iter(|| {
+                for k in 0..=nlp.n {
+                    black_box(solver.factor_node(k, &kkt.w[k], 0.0));
+                }
+                black_box(solver.factor_reduced(&nlp, &kkt));
+                solver.solve(&nlp, &kkt, &rw, &rl, &mut xw, &mut xl);
+                black_box(xw[0])
+            })
+        });
+        let (nf, dim, ri, ci, vv) = kkt.upper_triplets(&nlp);
+        let k = CscMatrix::new_from_triplets(dim, dim, ri, ci, vv);
+        let mut signs = vec![1i8; nf];
+        signs.resize(dim, -1);
+        let opts = QDLDLSettingsBuilder::default()
+            .Dsigns(signs)
+            .build()
+            .expect("QDLDL settings");
+        let mut ldl = QDLDLFactorisation::new(&k, Some(opts)).expect("QDLDL factors K");
+        let mut rhs = vec![0.0; dim];
+        g.bench_with_input(BenchmarkId::new("qdldl", n), &n, |b, _| {
+            b.iter(|| {
+                ldl.refactor().expect("QDLDL refactors K");
+                rhs.iter_mut()
+                    .enumerate()
+                    .for_each(|(i, v)| *v = (i as f64 * 0.3).sin());
+                ldl.solve(&mut rhs);
+                black_box(rhs[0])
+            })
+        });
+        println!(
+            "N = {n}: K is {dim} square, {} stored nonzeros; QDLDL's L has {} nonzeros; reduced system {} square (dense)",
+            k.nnz(),
+            ldl.nnzL(),
+            nlp.n_con() + 1
+        );
+    }
+    g.finish();
+}
+
+/// Cold solves of the paper's case, direct method and SCvx side by side.
+fn cold_solve(c: &mut Criterion) {
+    let mut g = c.benchmark_group("method_cold_solve");
+    g.sampling_mode(SamplingMode::Flat);
+    g.sample_size(10);
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(4));
+    for n in [20, 40] {
+        for method in [Method::Direct, Method::Scvx] {
+            let mut s = paper(n);
+            s.solver.method = method;
+            g.bench_with_input(BenchmarkId::new(method.as_str(), n), &s, |b, s| {
+                b.iter(|| {
+                    let sol = bellyflop::solve(black_box(s), &mut Silent);
+                    assert_eq!(sol.status, Status::Solved, "N = {n}");
+                    sol
+                })
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, kkt_solve, cold_solve);
+criterion_main!(benches);
