@@ -229,12 +229,21 @@ fn print_summary(scenario: &Scenario, s: &Solution) {
     if !s.message.is_empty() {
         println!("reason        {}", s.message);
     }
-    let form = s.formulation_label(scenario.solver.formulation);
     let mesh = match s.intervals {
         1 => "global mesh".to_string(),
         m => format!("{m} intervals"),
     };
-    println!("formulation   {form}, N = {}, {mesh}", s.nodes);
+    match s.method {
+        Method::Direct => println!(
+            "method        direct (interior point on P2), N = {}, {mesh}",
+            s.nodes
+        ),
+        Method::Scvx => println!(
+            "formulation   {}, N = {}, {mesh}",
+            s.formulation_label(scenario.solver.formulation),
+            s.nodes
+        ),
+    }
     println!("t_f           {:.4} s", s.tf_s);
     println!(
         "final mass    {:.1} kg (fuel {:.1} kg)",

@@ -1,5 +1,6 @@
-//! Heap allocations per SCvx iteration (issue 5), counted by a global
-//! allocator wrapper around the system allocator.
+//! Heap allocations per SCvx iteration (issue 5) and per iteration of the
+//! direct method (issue 15), counted by a global allocator wrapper around
+//! the system allocator.
 //!
 //! `cargo run --release -p bellyflop --example allocations`
 //!
@@ -10,6 +11,8 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 
+use bellyflop::direct::{self, DirectSettings};
+use bellyflop::nlp::Nlp;
 use bellyflop::replan::{initial_state, Planner};
 use bellyflop::scvx::Silent;
 use bellyflop::Scenario;
@@ -43,11 +46,43 @@ fn count<T>(f: impl FnOnce() -> T) -> (T, usize, usize) {
     (out, ALLOCS.load(Relaxed) - a0, BYTES.load(Relaxed) - b0)
 }
 
+/// The direct method: a cold solve's allocations in all (setup included),
+/// and per iteration as the difference between solves stopped after k and
+/// k + 10 iterations from the same start.
+fn direct_rows() {
+    println!("  N  direct: allocations in a cold solve (its), and per iteration after setup");
+    for n in [10, 20, 40] {
+        let mut s = Scenario::paper();
+        s.discretization.nodes = n;
+        let (sol, a, b) = count(|| bellyflop::solve(&s, &mut Silent));
+        let nlp = Nlp::new(&s);
+        let d = &s.discretization;
+        let w0 = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
+        let run = |k: usize| {
+            let settings = DirectSettings {
+                max_iterations: k,
+                ..DirectSettings::default()
+            };
+            count(|| direct::solve_nlp(&nlp, &w0, None, &settings, &mut Silent))
+        };
+        let ((r5, a5, _), (r15, a15, _)) = (run(5), run(15));
+        assert_eq!((r5.history.len(), r15.history.len()), (5, 15));
+        println!(
+            "{n:>3}  cold {:>4} its: {a:>6} allocations, {:>6} kB; iterations 6-15: {:.1} allocations per iteration",
+            sol.iterations,
+            b / 1024,
+            (a15 - a5) as f64 / 10.0
+        );
+    }
+}
+
 fn main() {
+    direct_rows();
     println!("  N  run        its  allocs/it  kB/it");
     for n in [10, 20, 40] {
         let mut s = Scenario::paper();
         s.discretization.nodes = n;
+        s.solver.method = bellyflop::Method::Scvx;
         let mut planner = Planner::new(s);
         let (cold, a, b) = count(|| planner.cold(&mut Silent));
         let it = cold.iterations.max(1);

@@ -102,6 +102,8 @@ const S_PHI: f64 = 2.3;
 const ETA_PHI: f64 = 1e-8;
 const GAMMA_ALPHA: f64 = 0.05;
 const MAX_SOC: usize = 4;
+/// Filter entries reserved at setup.
+const FILTER_CAPACITY: usize = 256;
 const KAPPA_SOC: f64 = 0.99;
 const BOUND_PUSH: f64 = 1e-2;
 /// Inertia correction (§3.1.1): first trial, growth and decrease factors.
@@ -143,6 +145,15 @@ struct Workspace {
     cor_w: Vec<f64>,
     cor_l: Vec<f64>,
     trial: Vec<f64>,
+    /// The iterate before the step, the Newton step, the bound-multiplier
+    /// steps and the corrected constraint values of the SOC: kept here so
+    /// that an iteration allocates nothing.
+    w_old: Vec<f64>,
+    step_w: Vec<f64>,
+    step_l: Vec<f64>,
+    dzl: Vec<f64>,
+    dzu: Vec<f64>,
+    c_soc: Vec<f64>,
 }
 
 /// The primal–dual iterate.
@@ -315,6 +326,12 @@ impl<'a> Driver<'a> {
             cor_w: vec![0.0; nv],
             cor_l: vec![0.0; nc],
             trial: vec![0.0; nv],
+            w_old: vec![0.0; nv],
+            step_w: vec![0.0; nv],
+            step_l: vec![0.0; nc],
+            dzl: vec![0.0; nv],
+            dzu: vec![0.0; nv],
+            c_soc: vec![0.0; nc],
         };
         Driver {
             nlp,
@@ -323,7 +340,8 @@ impl<'a> Driver<'a> {
             ws,
             mu: settings.mu_init,
             tau: TAU_MIN.max(1.0 - settings.mu_init),
-            filter: Filter(Vec::new()),
+            // Room for the entries of a barrier subproblem: no growth in an iteration.
+            filter: Filter(Vec::with_capacity(FILTER_CAPACITY)),
             theta_max: 0.0,
             theta_min: 0.0,
             delta_c: 0.0,
@@ -641,15 +659,15 @@ impl<'a> Driver<'a> {
         let theta0 = l1_norm(&self.ws.c);
         self.theta_max = 1e4 * theta0.max(1.0);
         self.theta_min = 1e-4 * theta0.max(1.0);
-        let mut history = Vec::new();
+        let mut history = Vec::with_capacity(self.settings.max_iterations);
         let tol = self.settings.tolerance;
         let mut outcome: Option<(Status, String)> = None;
 
         for iteration in 1..=self.settings.max_iterations {
             let t0 = Instant::now();
-            let (wc, lc) = (it.w.clone(), it.lambda.clone());
-            self.evaluate(&wc, &lc);
-            self.lagrangian_gradient(&wc, &lc);
+            self.evaluate(&it.w, &it.lambda);
+            self.lagrangian_gradient(&it.w, &it.lambda);
+            self.ws.w_old.copy_from_slice(&it.w);
             let (e0, primal, dual) = self.optimality_error(&it, 0.0);
             if !(e0.is_finite()) {
                 outcome = Some((
@@ -668,7 +686,7 @@ impl<'a> Driver<'a> {
             {
                 self.mu = (tol / 10.0).max((KAPPA_MU * self.mu).min(self.mu.powf(THETA_MU)));
                 self.tau = TAU_MIN.max(1.0 - self.mu);
-                self.filter = Filter(Vec::new());
+                self.filter.0.clear();
             }
             self.build_kkt(&it);
             if let Err(msg) = self.factor() {
@@ -685,7 +703,7 @@ impl<'a> Driver<'a> {
                 } => {
                     if !f_type {
                         let theta = l1_norm(&self.ws.c);
-                        let phi = self.phi(&wc);
+                        let phi = self.phi(&self.ws.w_old);
                         self.filter
                             .add((1.0 - GAMMA_THETA) * theta, phi - GAMMA_PHI * theta);
                     }
@@ -732,11 +750,11 @@ impl<'a> Driver<'a> {
         }
     }
 
-    /// Bound-multiplier step dz from dw (Eq. 13) and its largest step α_z.
-    fn dual_step(&self, it: &Iterate, dw: &[f64]) -> (Vec<f64>, Vec<f64>, f64) {
+    /// Bound-multiplier step dz from dw (Eq. 13) into `dzl`, `dzu`, and its
+    /// largest step α_z.
+    fn dual_step(&self, it: &Iterate, dw: &[f64], dzl: &mut [f64], dzu: &mut [f64]) -> f64 {
         let b = &self.bounds;
         let n = it.w.len();
-        let (mut dzl, mut dzu) = (vec![0.0; n], vec![0.0; n]);
         let mut a = 1.0f64;
         for j in 0..n {
             if b.has_lo[j] {
@@ -754,13 +772,17 @@ impl<'a> Driver<'a> {
                 }
             }
         }
-        (dzl, dzu, a)
+        a
     }
 
     /// Accept the trial point: primal and λ by α, bound multipliers by α_z,
     /// then the safeguard of Eq. 16.
     fn accept(&mut self, it: &mut Iterate, alpha: f64, dw: &[f64], dl: &[f64]) {
-        let (dzl, dzu, az) = self.dual_step(it, dw);
+        let (mut dzl, mut dzu) = (
+            std::mem::take(&mut self.ws.dzl),
+            std::mem::take(&mut self.ws.dzu),
+        );
+        let az = self.dual_step(it, dw, &mut dzl, &mut dzu);
         for j in 0..it.w.len() {
             it.w[j] += alpha * dw[j];
         }
@@ -780,6 +802,8 @@ impl<'a> Driver<'a> {
                 it.zu[j] = z.clamp(self.mu / (KAPPA_SIGMA * s), KAPPA_SIGMA * self.mu / s);
             }
         }
+        self.ws.dzl = dzl;
+        self.ws.dzu = dzu;
     }
 
     /// θ and φ_μ at w + α·d (in ws.trial, ws.c_trial).
@@ -823,13 +847,24 @@ impl<'a> Driver<'a> {
 
     /// The backtracking filter line search with second-order corrections.
     fn line_search(&mut self, it: &mut Iterate) -> LineSearch {
-        let w = it.w.clone();
-        let dw = self.ws.dw.clone();
-        let dl = self.ws.dl.clone();
+        // The Newton step, kept apart (the SOC overwrites ws.dw, ws.dl).
+        let (mut dw, mut dl) = (
+            std::mem::take(&mut self.ws.step_w),
+            std::mem::take(&mut self.ws.step_l),
+        );
+        dw.copy_from_slice(&self.ws.dw);
+        dl.copy_from_slice(&self.ws.dl);
+        let w = std::mem::take(&mut self.ws.w_old);
+        let out = self.backtrack(it, &w, &dw, &dl);
+        (self.ws.step_w, self.ws.step_l, self.ws.w_old) = (dw, dl, w);
+        out
+    }
+
+    fn backtrack(&mut self, it: &mut Iterate, w: &[f64], dw: &[f64], dl: &[f64]) -> LineSearch {
         let theta0 = l1_norm(&self.ws.c);
-        let phi0 = self.phi(&w);
+        let phi0 = self.phi(w);
         // ∇φ_μᵀ dw = −rwᵀ dw.
-        let m_phi: f64 = -self.ws.rw.iter().zip(&dw).map(|(a, b)| a * b).sum::<f64>();
+        let m_phi: f64 = -self.ws.rw.iter().zip(dw).map(|(a, b)| a * b).sum::<f64>();
         let alpha_min = if m_phi < 0.0 {
             GAMMA_ALPHA
                 * GAMMA_THETA
@@ -838,13 +873,13 @@ impl<'a> Driver<'a> {
         } else {
             GAMMA_ALPHA * GAMMA_THETA
         };
-        let mut alpha = self.bounds.max_step(&w, &dw, self.tau);
+        let mut alpha = self.bounds.max_step(w, dw, self.tau);
         let mut trials = 0;
         loop {
             trials += 1;
-            let (theta, phi) = self.trial_point(&w, &dw, alpha);
+            let (theta, phi) = self.trial_point(w, dw, alpha);
             if let Some(f_type) = self.acceptable(theta0, phi0, m_phi, alpha, theta, phi) {
-                self.accept(it, alpha, &dw, &dl);
+                self.accept(it, alpha, dw, dl);
                 return LineSearch::Accepted {
                     alpha,
                     trials,
@@ -853,7 +888,7 @@ impl<'a> Driver<'a> {
             }
             if trials == 1 && theta >= theta0 {
                 if let Some(accepted) =
-                    self.second_order_correction(it, alpha, theta0, phi0, m_phi, theta, &w)
+                    self.second_order_correction(it, alpha, theta0, phi0, m_phi, theta, w)
                 {
                     return accepted;
                 }
@@ -879,32 +914,34 @@ impl<'a> Driver<'a> {
         theta_trial: f64,
         w: &[f64],
     ) -> Option<LineSearch> {
-        let mut c_soc: Vec<f64> = self
-            .ws
-            .c
-            .iter()
-            .zip(&self.ws.c_trial)
-            .map(|(c, t)| alpha * c + t)
-            .collect();
+        let mut c_soc = std::mem::take(&mut self.ws.c_soc);
+        for ((cs, c), t) in c_soc.iter_mut().zip(&self.ws.c).zip(&self.ws.c_trial) {
+            *cs = alpha * c + t;
+        }
         let mut theta_old = theta_trial;
+        let mut out = None;
         for p in 0..MAX_SOC {
             for (r, c) in self.ws.rl.iter_mut().zip(&c_soc) {
                 *r = -c;
             }
             self.solve_kkt();
-            let d = self.ws.dw.clone();
+            let (d, dl) = (
+                std::mem::take(&mut self.ws.dw),
+                std::mem::take(&mut self.ws.dl),
+            );
             let a_soc = self.bounds.max_step(w, &d, self.tau);
             let (theta, phi) = self.trial_point(w, &d, a_soc);
-            if let Some(f_type) = self.acceptable(theta0, phi0, m_phi, alpha, theta, phi) {
-                let dl_soc = self.ws.dl.clone();
-                self.accept(it, a_soc, &d, &dl_soc);
-                return Some(LineSearch::Accepted {
+            let accepted = self.acceptable(theta0, phi0, m_phi, alpha, theta, phi);
+            if let Some(f_type) = accepted {
+                self.accept(it, a_soc, &d, &dl);
+                out = Some(LineSearch::Accepted {
                     alpha: a_soc,
                     trials: 1 + p + 1,
                     f_type,
                 });
             }
-            if theta > KAPPA_SOC * theta_old {
+            (self.ws.dw, self.ws.dl) = (d, dl);
+            if out.is_some() || theta > KAPPA_SOC * theta_old {
                 break;
             }
             theta_old = theta;
@@ -912,7 +949,8 @@ impl<'a> Driver<'a> {
                 *cs = a_soc * *cs + t;
             }
         }
-        None
+        self.ws.c_soc = c_soc;
+        out
     }
 
     /// Feasibility restoration: regularized Gauss–Newton steps on ½‖c‖²
