@@ -51,13 +51,20 @@ def states(box_count, wide_count, seed):
             yield f"{name}{k}", tuple(rng.uniform(lo, hi) for lo, hi in box)
 
 
+DIRECT_LINES = []
+
+
 def scenario_text(state, nodes):
     s = (ROOT / "scenarios" / "paper.toml").read_text()
     keys = ("x_m", "z_m", "vx_mps", "vz_mps", "theta_deg", "mass_kg")
     for key, val in zip(keys, state):
         s = re.sub(rf"(?m)^{key} = .*", f"{key} = {val:.3f}", s, count=1)
     s = re.sub(r"(?m)^final_mass_guess_kg = .*", f"final_mass_guess_kg = {state[5] - 5000.0:.1f}", s, count=1)
-    return re.sub(r"(?m)^nodes = .*", f"nodes = {nodes}", s, count=1)
+    s = re.sub(r"(?m)^nodes = .*", f"nodes = {nodes}", s, count=1)
+    # [solver] is the file's last table, so a [solver.direct] table can follow.
+    if DIRECT_LINES:
+        s += "\n[solver.direct]\n" + "\n".join(DIRECT_LINES) + "\n"
+    return s
 
 
 def ours(path, method, repeat):
@@ -87,14 +94,18 @@ def main():
     ap.add_argument("--repeat", type=int, default=3, help="timing runs of IPOPT and the direct method")
     ap.add_argument("--scvx-repeat", type=int, default=1, help="timing runs of SCvx (10x slower)")
     ap.add_argument("--table", action="store_true", help="one line per state")
+    ap.add_argument("--direct", action="append", default=[],
+                    help="a line for the scenario's [solver.direct] table (repeatable)")
     args = ap.parse_args()
+    DIRECT_LINES.extend(args.direct)
     nodes = args.nodes or [20, 40]
     methods = args.methods.split(",")
     if not BIN.exists():
         subprocess.run(["cargo", "build", "--release"], cwd=ROOT, check=True)
     if not PY.exists():
         sys.exit("bench/reference/.venv is missing: run bench/compare.sh once to create it")
-    print(f"seed {args.seed}: {args.box} box + {args.wide} wide states; repeat {args.repeat} (SCvx {args.scvx_repeat})")
+    print(f"seed {args.seed}: {args.box} box + {args.wide} wide states; repeat {args.repeat} (SCvx {args.scvx_repeat})"
+          + "".join(f" [{line}]" for line in args.direct))
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "state.toml"
         for n in nodes:

@@ -135,6 +135,9 @@ const FACTOR: Allowed = open_closed(1.0, 100.0);
 /// The accepted values of `solver.method`.
 pub const METHODS: &[&str] = &["direct", "scvx"];
 
+/// The accepted values of `solver.direct.mu_strategy`.
+pub const MU_STRATEGIES: &[&str] = &["monotone", "adaptive"];
+
 /// The accepted values of `solver.formulation`.
 pub const FORMULATIONS: &[&str] = &["exact", "paper", "vector"];
 
@@ -213,6 +216,8 @@ pub const DOCS: &[Doc] = &[
         "Interior-point iteration limit; past it the status is not_converged."),
     doc!("solver.direct", "mu_init", "", open_closed(0.0, 10.0),
         "Initial barrier parameter mu_0."),
+    doc!("solver.direct", "mu_strategy", "", Allowed::Choice(MU_STRATEGIES),
+        "How the barrier parameter falls: \"monotone\" (Fiacco-McCormick, IPOPT's default) or \"adaptive\" (Mehrotra's probing rule each iteration, falling back to monotone when the optimality error stalls)."),
     // SCvx (Section 3.4; trust region of Mao, Szmuk and Acikmese 2016).
     doc!("solver", "formulation", "", Allowed::Choice(FORMULATIONS),
         "Thrust direction: \"exact\" keeps theta + delta in the dynamics (default); \"paper\" is the paper's P4 with the lossless cone and Eq. 27; \"vector\" is the paper's controls with the thrust held on the nozzle axis."),

@@ -40,6 +40,26 @@ pub struct DirectSettings {
     pub max_iterations: usize,
     /// Initial barrier parameter μ_0.
     pub mu_init: f64,
+    /// How μ falls: `monotone` (Fiacco–McCormick, IPOPT's default) or
+    /// `adaptive` (Mehrotra's probing rule each iteration, with a fall-back
+    /// to the monotone rule when the optimality error stops falling).
+    pub mu_strategy: MuStrategy,
+}
+
+/// The barrier parameter update.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MuStrategy {
+    /// μ ← max(ε/10, min(κ_μ μ, μ^θ_μ)) once the barrier problem is solved
+    /// to κ_ε μ (Wächter & Biegler 2006, Eq. 7).
+    #[default]
+    Monotone,
+    /// μ = σ·(sᵀz/n) with σ = (μ_aff/(sᵀz/n))³ from an affine-scaling probe
+    /// (Mehrotra 1992; Nocedal, Wächter & Waltz 2009), the filter reset as μ
+    /// changes; monotone from the first iteration that fails to reduce the
+    /// optimality error E_0 over [`ADAPTIVE_WINDOW`] iterations, or whose
+    /// line search fails.
+    Adaptive,
 }
 
 impl Default for DirectSettings {
@@ -48,6 +68,7 @@ impl Default for DirectSettings {
             tolerance: 1e-8,
             max_iterations: 500,
             mu_init: 0.1,
+            mu_strategy: MuStrategy::Monotone,
         }
     }
 }
@@ -123,6 +144,9 @@ const DELTA_STATIC: f64 = 1e-9;
 const DELTA_C: f64 = 1e-8;
 /// Iterative refinement stops once the residual is this fraction of the right-hand side.
 const REFINE_TOL: f64 = 1e-12;
+/// Adaptive μ: iterations over which E_0 must fall by [`ADAPTIVE_DECREASE`].
+pub const ADAPTIVE_WINDOW: usize = 4;
+const ADAPTIVE_DECREASE: f64 = 0.9999;
 /// Restoration: iterations, and the factor by which it must reduce θ.
 const RESTORATION_ITERATIONS: usize = 40;
 const RESTORATION_REDUCTION: f64 = 0.9;
@@ -297,6 +321,10 @@ struct Driver<'a> {
     delta_w_last: f64,
     /// Free primal variables (with t̂_f).
     n_primal: usize,
+    /// Whether μ follows the adaptive rule (until it falls back).
+    adaptive: bool,
+    /// E_0 at the iterations of the adaptive mode, for its progress test.
+    e0_history: Vec<f64>,
 }
 
 impl<'a> Driver<'a> {
@@ -348,6 +376,8 @@ impl<'a> Driver<'a> {
             inertia: 0.0,
             delta_w_last: 0.0,
             n_primal: (0..nv).filter(|&j| !nlp.is_fixed(j)).count(),
+            adaptive: settings.mu_strategy == MuStrategy::Adaptive,
+            e0_history: Vec::with_capacity(settings.max_iterations),
         }
     }
 
@@ -680,18 +710,28 @@ impl<'a> Driver<'a> {
                 outcome = Some((Status::Solved, String::new()));
                 break;
             }
-            // Monotone barrier update (§3.1, Eq. 7), possibly several times.
-            while self.optimality_error(&it, self.mu).0 <= KAPPA_EPS * self.mu
-                && self.mu > tol / 10.0
-            {
-                self.mu = (tol / 10.0).max((KAPPA_MU * self.mu).min(self.mu.powf(THETA_MU)));
-                self.tau = TAU_MIN.max(1.0 - self.mu);
-                self.filter.0.clear();
+            if self.adaptive && !self.adaptive_progress(e0) {
+                self.leave_adaptive_mode(&it);
+            }
+            if !self.adaptive {
+                // Monotone barrier update (§3.1, Eq. 7), possibly several times.
+                while self.optimality_error(&it, self.mu).0 <= KAPPA_EPS * self.mu
+                    && self.mu > tol / 10.0
+                {
+                    self.mu = (tol / 10.0).max((KAPPA_MU * self.mu).min(self.mu.powf(THETA_MU)));
+                    self.tau = TAU_MIN.max(1.0 - self.mu);
+                    self.filter.0.clear();
+                }
             }
             self.build_kkt(&it);
             if let Err(msg) = self.factor() {
                 outcome = Some((Status::SolverFailed, msg));
                 break;
+            }
+            if self.adaptive {
+                self.mu = self.probe_mu(&it);
+                self.tau = TAU_MIN.max(1.0 - self.mu);
+                self.filter.0.clear();
             }
             self.newton_rhs(&it);
             self.solve_kkt();
@@ -708,6 +748,11 @@ impl<'a> Driver<'a> {
                             .add((1.0 - GAMMA_THETA) * theta, phi - GAMMA_PHI * theta);
                     }
                     (alpha, trials, false)
+                }
+                LineSearch::Failed if self.adaptive => {
+                    // No restoration in the adaptive mode: fall back and retry.
+                    self.leave_adaptive_mode(&it);
+                    (0.0, 0, false)
                 }
                 LineSearch::Failed => match self.restore(&mut it) {
                     Ok(()) => (0.0, 0, true),
@@ -748,6 +793,98 @@ impl<'a> Driver<'a> {
             message,
             history,
         }
+    }
+
+    /// Whether the adaptive mode still makes progress: E_0 fell by
+    /// [`ADAPTIVE_DECREASE`] against its value [`ADAPTIVE_WINDOW`] iterations ago.
+    fn adaptive_progress(&mut self, e0: f64) -> bool {
+        self.e0_history.push(e0);
+        let n = self.e0_history.len();
+        n <= ADAPTIVE_WINDOW || e0 <= ADAPTIVE_DECREASE * self.e0_history[n - 1 - ADAPTIVE_WINDOW]
+    }
+
+    /// Switch to the monotone rule for the rest of the solve, at μ = κ_μ
+    /// times the average complementarity.
+    fn leave_adaptive_mode(&mut self, it: &Iterate) {
+        self.adaptive = false;
+        let (avg, _) = self.complementarity(it, None);
+        self.mu = (KAPPA_MU * avg).max(self.settings.tolerance / 10.0);
+        self.tau = TAU_MIN.max(1.0 - self.mu);
+        self.filter.0.clear();
+    }
+
+    /// Average complementarity sᵀz/n of the iterate, or of the iterate moved
+    /// by (α_p·dw, α_d·dz) when `step` is given; and the pair count.
+    fn complementarity(&self, it: &Iterate, step: Option<(f64, f64)>) -> (f64, usize) {
+        let b = &self.bounds;
+        let (mut sum, mut count) = (0.0, 0usize);
+        let (ap, ad) = step.unwrap_or((0.0, 0.0));
+        for j in 0..it.w.len() {
+            let dw = self.ws.dw[j];
+            if b.has_lo[j] {
+                let s = it.w[j] - b.lo[j] + ap * dw;
+                sum += s * (it.zl[j] + ad * self.ws.dzl[j]);
+                count += 1;
+            }
+            if b.has_hi[j] {
+                let s = b.hi[j] - it.w[j] - ap * dw;
+                sum += s * (it.zu[j] + ad * self.ws.dzu[j]);
+                count += 1;
+            }
+        }
+        (sum / count.max(1) as f64, count)
+    }
+
+    /// Mehrotra's probe: the affine-scaling step (μ = 0) with the current
+    /// factors, its complementarity μ_aff, and μ = σ·avg with
+    /// σ = (μ_aff/avg)³.
+    fn probe_mu(&mut self, it: &Iterate) -> f64 {
+        let mu = self.mu;
+        self.mu = 0.0;
+        self.newton_rhs(it);
+        self.solve_kkt();
+        let (mut dzl, mut dzu) = (
+            std::mem::take(&mut self.ws.dzl),
+            std::mem::take(&mut self.ws.dzu),
+        );
+        let dw = std::mem::take(&mut self.ws.dw);
+        let ad = self.dual_step_to_boundary(it, &dw, &mut dzl, &mut dzu);
+        let ap = self.bounds.max_step(&it.w, &dw, 1.0);
+        (self.ws.dzl, self.ws.dzu, self.ws.dw) = (dzl, dzu, dw);
+        self.mu = mu;
+        let (avg, _) = self.complementarity(it, None);
+        let (aff, _) = self.complementarity(it, Some((ap, ad)));
+        let sigma = (aff / avg).clamp(0.0, 1.0).powi(3);
+        (sigma * avg).clamp(self.settings.tolerance / 10.0, 1e3)
+    }
+
+    /// [`Driver::dual_step`] with μ = 0 and the full step to the boundary (τ = 1).
+    fn dual_step_to_boundary(
+        &self,
+        it: &Iterate,
+        dw: &[f64],
+        dzl: &mut [f64],
+        dzu: &mut [f64],
+    ) -> f64 {
+        let b = &self.bounds;
+        let mut a = 1.0f64;
+        for j in 0..it.w.len() {
+            if b.has_lo[j] {
+                let s = it.w[j] - b.lo[j];
+                dzl[j] = -it.zl[j] - it.zl[j] / s * dw[j];
+                if dzl[j] < 0.0 {
+                    a = a.min(-it.zl[j] / dzl[j]);
+                }
+            }
+            if b.has_hi[j] {
+                let s = b.hi[j] - it.w[j];
+                dzu[j] = -it.zu[j] + it.zu[j] / s * dw[j];
+                if dzu[j] < 0.0 {
+                    a = a.min(-it.zu[j] / dzu[j]);
+                }
+            }
+        }
+        a
     }
 
     /// Bound-multiplier step dz from dw (Eq. 13) into `dzl`, `dzu`, and its

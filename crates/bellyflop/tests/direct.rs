@@ -184,3 +184,11 @@ fn warm_start_from_the_answer_converges_in_a_few_iterations() {
         cold.history.len()
     );
 }
+
+/// The adaptive barrier rule reaches the same optimum (BENCHMARKS.md has
+/// its iteration counts: no fewer than the monotone rule's on dispersed states).
+#[test]
+fn adaptive_barrier_rule_reaches_the_same_optimum() {
+    let sol = direct_paper(|s| s.solver.direct.mu_strategy = direct::MuStrategy::Adaptive);
+    assert_reference(&sol, 114_569.455, 11.56895, "adaptive μ");
+}
