@@ -1266,7 +1266,7 @@ pub fn solve_from(
     let tr = crate::transcription::Transcription::new(&exact);
     let checks = checks(nlp, &r.w);
     let (mut status, mut message) = (r.status, r.message);
-    if status == Status::Solved && checks.min_altitude_margin_m < -1e-6 {
+    if status == Status::Solved && checks.min_altitude_margin_m < -crate::scvx::GROUND_TOLERANCE_M {
         status = Status::NonPhysical;
         message = format!(
             "the trajectory passes {:.3} m below the landing altitude",
