@@ -4,11 +4,13 @@
 #
 #   bench/compare.sh [N ...]        (default: 20 40)
 #
-# Environment: SCENARIO (default scenarios/paper.toml), REPEAT (default 10, >= 10),
+# Environment: METHOD (default direct; or scvx), SCENARIO (default scenarios/paper.toml), REPEAT (default 10, >= 10),
 # INTERVALS (default 1): LGR mesh intervals M, passed as `--intervals M` to both
 # sides (1 = the paper's global mesh; M > 1 = hp mesh, needs N / M >= 2 for every
 # N). It overrides the scenario's discretization.intervals on both sides.
-# Ours: the CLI's `solve_time_ms` (the SCvx loop, Transcription setup excluded)
+# The reference runs with --ground (bellyflop's ground bound z >= z_f), so both
+# sides solve one program.
+# Ours: the CLI's `solve_time_ms` (the method's solve, its setup excluded)
 # over REPEAT separate runs of `bellyflop solve --json --quiet`; median reported.
 # IPOPT: the reference's `solve_time_ms`, itself the median of REPEAT solve calls
 # from the straight-line guess (solver build time excluded).
@@ -19,6 +21,7 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 SCENARIO="${SCENARIO:-scenarios/paper.toml}"
 REPEAT="${REPEAT:-10}"
+METHOD="${METHOD:-direct}"
 INTERVALS="${INTERVALS:-1}"
 NODES=("$@")
 [ ${#NODES[@]} -eq 0 ] && NODES=(20 40)
@@ -57,7 +60,7 @@ ours() {
     for ((i = 1; i <= REPEAT; i++)); do
         rc=0
         "$BIN" solve --scenario "$SCENARIO" --json --quiet --nodes "$n" \
-            --intervals "$INTERVALS" > "$TMP/run.json" || rc=$?
+            --intervals "$INTERVALS" --method "$METHOD" > "$TMP/run.json" || rc=$?
         [ "$rc" -eq 0 ] || die "ours at N=$n M=$INTERVALS, run $i: bellyflop exited with $rc"
         python3 - "$TMP/run.json" "$n" "$INTERVALS" >> "$TMP/ours_$n" <<'PY' || die "ours at N=$n M=$INTERVALS: bad output"
 import json, sys
@@ -83,7 +86,7 @@ PY
 ipopt() {
     local n="$1" rc=0
     "$PY" bench/reference/nlp_reference.py --scenario "$SCENARIO" --problem P2 \
-        --nodes "$n" --intervals "$INTERVALS" --repeat "$REPEAT" --json \
+        --nodes "$n" --intervals "$INTERVALS" --repeat "$REPEAT" --json --ground \
         > "$TMP/ref_$n.json" 2> "$TMP/ref_$n.err" || rc=$?
     [ "$rc" -eq 0 ] || { cat "$TMP/ref_$n.err" >&2; die "IPOPT reference at N=$n M=$INTERVALS exited with $rc"; }
     python3 - "$TMP/ref_$n.json" "$n" "$INTERVALS" <<'PY' || die "IPOPT reference at N=$n M=$INTERVALS: bad output"
@@ -112,7 +115,7 @@ mesh() {
 }
 
 if [ "$INTERVALS" -eq 1 ]; then MESH_DESC="global LGR mesh (M=1)"; else MESH_DESC="hp mesh, M=$INTERVALS intervals"; fi
-echo "bench/compare.sh  scenario=$SCENARIO  repeat=$REPEAT  mesh: $MESH_DESC  $(date -u '+%Y-%m-%d %H:%M UTC')"
+echo "bench/compare.sh  method=$METHOD  scenario=$SCENARIO  repeat=$REPEAT  mesh: $MESH_DESC  $(date -u '+%Y-%m-%d %H:%M UTC')"
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
 echo
 printf '%4s %3s %-16s | %14s %6s %12s | %14s %6s %12s | %13s\n' \

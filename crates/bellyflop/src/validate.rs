@@ -321,6 +321,11 @@ fn solver(s: &SolverSettings) -> Result<(), InputError> {
         s.direct.max_iterations,
         MAX_ITERATIONS,
     )?;
+    count_in_range(
+        "solver.direct.coarse_nodes",
+        s.direct.coarse_nodes,
+        (0, 100),
+    )?;
     check_all(&[
         ("solver.direct.tolerance", s.direct.tolerance, TOLERANCE),
         ("solver.direct.mu_init", s.direct.mu_init, MU_INIT),

@@ -119,29 +119,53 @@ fn too_low_to_stop_is_infeasible_with_a_reason() {
 
 #[test]
 fn iteration_limit_is_not_converged_with_the_last_iterate() {
-    let sol = direct_paper(|s| s.solver.direct.max_iterations = 4);
-    assert_eq!(sol.status, Status::NotConverged);
-    assert_eq!(sol.iterations, 4);
-    assert!(
-        sol.message.contains("4 interior-point iterations"),
-        "{}",
-        sol.message
-    );
-    assert!(sol.trajectory.is_finite());
-    assert!(
-        sol.checks.max_defect > 1e-6,
-        "not yet feasible after 4 iterations"
-    );
+    // With and without the coarse start: the limit counts every phase.
+    for coarse in [0, 10] {
+        let sol = direct_paper(|s| {
+            s.solver.direct.max_iterations = 4;
+            s.solver.direct.coarse_nodes = coarse;
+        });
+        assert_eq!(sol.status, Status::NotConverged);
+        assert_eq!(sol.iterations, 4, "coarse {coarse}");
+        assert!(
+            sol.message.contains("4 interior-point iterations"),
+            "{}",
+            sol.message
+        );
+        assert!(sol.trajectory.is_finite());
+        assert!(
+            sol.checks.max_defect > 1e-6,
+            "not yet feasible after 4 iterations"
+        );
+    }
+    // A limit that the coarse phase does not use up leaves the rest to the fine one.
+    let sol = direct_paper(|s| s.solver.direct.max_iterations = 30);
+    assert_eq!(sol.status, Status::NotConverged, "{}", sol.message);
+    assert_eq!(sol.iterations, 30);
 }
 
-/// Every iteration's record is filled in: the infeasibilities fall to the
-/// tolerance, μ never rises, and the steps lie in (0, 1].
+/// The coarse start and the straight line reach the same optimum.
+#[test]
+fn coarse_start_and_straight_line_agree() {
+    let a = direct_paper(|s| s.solver.direct.coarse_nodes = 0);
+    let b = direct_paper(|s| s.solver.direct.coarse_nodes = 10);
+    assert!((a.final_mass_kg - b.final_mass_kg).abs() < 0.01);
+    assert!(b.direct_history.iter().any(|h| h.mesh_nodes == 10));
+    assert!(a.direct_history.iter().all(|h| h.mesh_nodes == 20));
+}
+
 #[test]
 fn history_records_the_interior_point_iterations() {
     let sol = direct_paper(|_| ());
     let h = &sol.direct_history;
     assert!(h.len() >= 5);
-    assert!(h.windows(2).all(|w| w[1].mu <= w[0].mu));
+    // μ never rises within a mesh; the coarse start (N = 10) comes first.
+    assert!(h
+        .windows(2)
+        .all(|w| w[1].mu <= w[0].mu || w[1].mesh_nodes != w[0].mesh_nodes));
+    assert_eq!(h[0].mesh_nodes, 10);
+    assert_eq!(h.last().unwrap().mesh_nodes, 20);
+    assert!(h.iter().enumerate().all(|(k, r)| r.iteration == k + 1));
     assert!(h
         .iter()
         .all(|r| r.restoration || (r.step > 0.0 && r.step <= 1.0)));
