@@ -92,12 +92,18 @@ impl<'a> PlotData<'a> {
     }
 
     fn title(&self) -> String {
+        let method = match self.solution.method {
+            bellyflop::Method::Direct => "direct method".to_string(),
+            bellyflop::Method::Scvx => format!(
+                "SCvx, {} formulation",
+                self.solution
+                    .formulation_label(self.scenario.solver.formulation)
+            ),
+        };
         format!(
-            "{}: N = {}, {} formulation, {}, t_f = {:.3} s, final mass {:.1} kg",
+            "{}: N = {}, {method}, {}, t_f = {:.3} s, final mass {:.1} kg",
             self.scenario.name,
             self.solution.nodes,
-            self.solution
-                .formulation_label(self.scenario.solver.formulation),
             self.solution.status.as_str(),
             self.solution.tf_s,
             self.solution.final_mass_kg

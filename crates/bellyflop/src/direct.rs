@@ -160,7 +160,7 @@ const DELTA_STATIC: f64 = 1e-9;
 const DELTA_C: f64 = 1e-8;
 /// Iterative refinement stops once the residual is this fraction of the right-hand side.
 const REFINE_TOL: f64 = 1e-12;
-/// Adaptive μ: iterations over which E_0 must fall by [`ADAPTIVE_DECREASE`].
+/// Adaptive μ: iterations over which E_0 must fall by 0.01 %.
 pub const ADAPTIVE_WINDOW: usize = 4;
 const ADAPTIVE_DECREASE: f64 = 0.9999;
 /// Restoration: iterations, and the factor by which it must reduce θ.

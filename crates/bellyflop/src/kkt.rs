@@ -452,7 +452,7 @@ impl KktSolver {
     ///
     /// Inside R the multipliers are ordered state-major (λ of state c at
     /// point i is row c·N + i), so that the D ⊗ I part of S,
-    /// S^{cc'} = D·diag(Q_k[c][c'])·Dᵀ, is eight dense products P_{c'}·Dᵀ
+    /// S^{cc2} = D·diag(Q_k(c, c2))·Dᵀ, is eight dense products P_{c2}·Dᵀ
     /// (faer's SIMD matmul) instead of a scattered 64·N³ loop, which took
     /// 56 % of a solve at N = 40 (perf).
     pub fn factor_reduced(&mut self, nlp: &Nlp, kkt: &KktMatrix) -> Inertia {

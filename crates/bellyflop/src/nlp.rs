@@ -58,7 +58,7 @@ const ACTIVE: [usize; 6] = [
     slot::T,
 ];
 
-/// Bounds on t_f [s], as in the IPOPT reference.
+/// Bounds on t_f \[s\], as in the IPOPT reference.
 pub const TF_BOUNDS_S: (f64, f64) = (1.0, 100.0);
 
 /// Derivatives of the dynamics at one collocation point, in scaled units.
@@ -270,7 +270,7 @@ impl Nlp {
         w
     }
 
-    /// Physical t_f [s] of a scaled vector.
+    /// Physical t_f \[s\] of a scaled vector.
     #[inline]
     pub fn tf_s(&self, w: &[f64]) -> f64 {
         self.tf_scale * w[self.tf_idx()]
