@@ -11,9 +11,12 @@
 //! - [`solution`]: status, physical trajectory, checks and history;
 //! - [`replan`]: warm re-plans from the shifted previous plan;
 //! - [`propagate`]: landing precision by re-integrating the nonlinear model;
+//! - [`accuracy`]: the re-integrated landing error of a `solved` answer against
+//!   its tolerances;
 //! - [`sim`]: the truth plant and Monte-Carlo dispersions for closed-loop guidance;
 //! - [`navigation`]: filters on the measured state (position, wind);
 //! - [`guidance`]: the closed loop — navigation, re-planning, control.
+pub mod accuracy;
 pub mod conic;
 pub mod direct;
 pub mod dynamics;
@@ -39,10 +42,17 @@ pub use scvx::Observer;
 pub use solution::{Solution, Status};
 
 /// Solve a scenario with the method its settings name
-/// (`solver.method`: SCvx or the direct interior-point method).
+/// (`solver.method`: SCvx or the direct interior-point method). A `solved`
+/// answer whose controls, re-integrated, land beyond the scenario's
+/// tolerances is `inaccurate` ([`accuracy::check`]). `solve_time_ms` is the
+/// method's own time: the re-integration is not counted. The methods on
+/// their own ([`scvx::solve`], [`direct::solve`], and the closed loop's
+/// re-plans) skip the check.
 pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
-    match scenario.solver.method {
+    let mut sol = match scenario.solver.method {
         Method::Scvx => scvx::solve(scenario, observer),
         Method::Direct => direct::solve(scenario, observer),
-    }
+    };
+    accuracy::check(scenario, &mut sol);
+    sol
 }

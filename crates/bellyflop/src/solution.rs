@@ -22,6 +22,10 @@ pub enum Status {
     NotConverged,
     /// The conic solver failed on every attempt.
     SolverFailed,
+    /// Converged and passes the checks, but its controls, re-integrated,
+    /// miss the target by more than the scenario's landing tolerances
+    /// ([`crate::accuracy`]; set by [`crate::solve`] only).
+    Inaccurate,
 }
 
 impl Status {
@@ -32,11 +36,13 @@ impl Status {
             Status::Infeasible => "infeasible",
             Status::NotConverged => "not_converged",
             Status::SolverFailed => "solver_failed",
+            Status::Inaccurate => "inaccurate",
         }
     }
 
     /// Process exit code: 0 solved, 3 infeasible, 4 not converged,
-    /// 5 non-physical, 6 solver failure (2 is bad input, before any solve).
+    /// 5 non-physical, 6 solver failure, 9 inaccurate (2 is bad input, before
+    /// any solve; `sim` uses 7 and 8).
     pub fn exit_code(self) -> i32 {
         match self {
             Status::Solved => 0,
@@ -44,6 +50,7 @@ impl Status {
             Status::NotConverged => 4,
             Status::NonPhysical => 5,
             Status::SolverFailed => 6,
+            Status::Inaccurate => 9,
         }
     }
 }
