@@ -146,6 +146,21 @@ fn inaccurate_landing_exits_9_with_the_error() {
     }
 }
 
+/// A local infeasibility without a certificate is not `infeasible`: the
+/// paper's case on N = 4 points exits 4, saying that none was found.
+#[test]
+fn uncertified_infeasibility_exits_4() {
+    let (code, stdout, _) = bellyflop(&["solve", "--json", "--method", "scvx", "--nodes", "4"]);
+    assert_eq!(code, 4);
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["status"], "not_converged");
+    let message = v["message"].as_str().unwrap();
+    assert!(
+        message.starts_with("no trajectory was found, but infeasibility is not proven"),
+        "{message}"
+    );
+}
+
 #[test]
 fn iteration_limit_exits_4() {
     // SCvx's limit, and the direct method's own.

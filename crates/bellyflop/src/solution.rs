@@ -15,8 +15,12 @@ pub enum Status {
     Solved,
     /// Converged, but the relaxation is not tight or the thrust points backwards.
     NonPhysical,
-    /// The iteration settled on a point that still needs virtual control:
-    /// no trajectory meets the dynamics, bounds and boundary conditions.
+    /// No trajectory exists. From [`crate::solve`] only with a certificate
+    /// ([`crate::feasibility`]), computed before solving. The methods on
+    /// their own ([`crate::scvx::solve`], [`crate::direct::solve`], the
+    /// closed loop's re-plans) also report a local infeasibility this way —
+    /// a point that still needs virtual control, or a failed feasibility
+    /// restoration — which [`crate::solve`] reports as `not_converged`.
     Infeasible,
     /// Iteration or trust-region limit reached; the best iterate is returned.
     NotConverged,

@@ -117,15 +117,32 @@ fn six_dispersed_states_reach_the_ipopt_optimum() {
     }
 }
 
+/// 100 m up at 85 m/s: the method alone ends locally infeasible (its
+/// restoration stalls); `bellyflop::solve` has the stopping bound's
+/// certificate and does not solve.
 #[test]
 fn too_low_to_stop_is_infeasible_with_a_reason() {
+    let mut s = Scenario::paper();
+    s.solver.method = Method::Direct;
+    s.initial.z_m = 100.0;
+    let alone = direct::solve(&s, &mut Silent);
+    assert_eq!(alone.status, Status::Infeasible, "{}", alone.message);
+    assert!(
+        alone.message.contains("locally infeasible"),
+        "{}",
+        alone.message
+    );
+    assert!(alone.trajectory.is_finite());
     let sol = direct_paper(|s| s.initial.z_m = 100.0);
     assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
     assert!(
-        sol.message.contains("locally infeasible"),
+        sol.message.starts_with(
+            "no trajectory exists (certified before solving by the vertical stopping bound)"
+        ),
         "{}",
         sol.message
     );
+    assert_eq!((sol.iterations, sol.method), (0, Method::Direct));
     assert!(sol.trajectory.is_finite());
 }
 
