@@ -51,7 +51,8 @@
 //!
 //! On the paper's case the bound needs 238.8 m of the 600 m: every state of
 //! the documented envelope passes, and the paper's case from z0 = 100 m
-//! (101 m would be needed before the descent can stop) is certified.
+//! (the same 238.8 m would be needed: the bound does not depend on z0) is
+//! certified.
 
 use std::fmt;
 
@@ -80,7 +81,7 @@ pub struct StoppingBound {
     pub final_descent_rate_mps: f64,
     /// Lower bound on the altitude lost before the descent rate can reach
     /// v_f, ∫L dt \[m\] (integrated until L ≤ v_f, the burn time, the
-    /// horizon, or twice h past the margin: then it is "at least" this).
+    /// horizon, or 10·h + 1 km: then it is "at least" this).
     pub distance_m: f64,
     /// Time at which the integration stopped \[s\].
     pub time_s: f64,
@@ -124,8 +125,9 @@ pub fn stopping_bound(s: &Scenario) -> Option<StoppingBound> {
     let v = &s.vehicle;
     let g = s.environment.g0_mps2;
     let h = s.initial.z_m - s.terminal.z_m;
-    let v0 = -s.initial.vz_mps;
-    let vf = -s.terminal.vz_mps;
+    // 0 − x, not −x: a still target prints as 0.0 m/s, not −0.0.
+    let v0 = 0.0 - s.initial.vz_mps;
+    let vf = 0.0 - s.terminal.vz_mps;
     if v0 <= vf {
         return None;
     }
@@ -165,7 +167,9 @@ pub fn stopping_bound(s: &Scenario) -> Option<StoppingBound> {
     };
     // Past t_burn by the margin, so that the propellant certificate can hold.
     let limit_s = (burn_time_max_s * (1.0 + RELATIVE_MARGIN)).min(HORIZON_S);
-    let enough_m = 2.0 * h + ALTITUDE_MARGIN_M;
+    // Far past the certificate's threshold, so that the message can give
+    // the whole stopping distance in all but extreme cases.
+    let enough_m = 10.0 * h + 1000.0;
     let (mut t, mut big_v, mut u, mut lower, mut distance) = (0.0, v0, v0, v0, 0.0);
     let mut stops = false;
     loop {
@@ -242,9 +246,18 @@ mod tests {
         assert!(b.stops);
         assert!((b.distance_m - 238.8).abs() < 0.1, "{b:?}");
         assert!(certify(&Scenario::paper()).is_none());
+        // The stopping distance does not depend on z0: from 100 m it is the
+        // same 238.8 m, and the message says so.
         let low = paper_from(|s| s.initial.z_m = 100.0);
         match certify(&low) {
-            Some(Certificate::Altitude(b)) => assert!(b.distance_m > 101.0, "{b:?}"),
+            Some(c @ Certificate::Altitude(b)) => {
+                assert!((b.distance_m - 238.8).abs() < 0.1, "{b:?}");
+                let m = c.to_string();
+                assert!(
+                    m.contains("needs at least 238.8 m") && m.contains("to 0.0 m/s"),
+                    "{m}"
+                );
+            }
             c => panic!("{c:?}"),
         }
     }

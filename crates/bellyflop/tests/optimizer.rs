@@ -186,7 +186,7 @@ fn claim_paper(edit: impl FnOnce(&mut Scenario)) -> Solution {
 fn too_low_and_too_fast_is_infeasible() {
     // 100 m up at 85 m/s: even T_max plus drag cannot stop the fall. SCvx
     // alone settles locally infeasible; the stopping bound proves it (at
-    // least 101 m are needed), so `bellyflop::solve` says so without solving.
+    // least 238.8 m are needed), so `bellyflop::solve` says so without solving.
     let sol = solve_paper(|s| s.initial.z_m = 100.0);
     assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
     assert!(sol.message.contains("no trajectory"), "{}", sol.message);
