@@ -18,9 +18,11 @@ fn assert_landing_error(v: &serde_json::Value, what: &str) {
     assert!(p["error"].is_null());
 }
 
+/// N = 12 and 15: the paper's case lands within the default tolerances
+/// there (at N = 10 it misses by 2.07 m/s: `inaccurate`, exit 9).
 #[test]
 fn solve_json_has_the_landing_error() {
-    let (code, stdout, _) = bellyflop(&["solve", "--json", "--nodes", "10"]);
+    let (code, stdout, _) = bellyflop(&["solve", "--json", "--nodes", "12"]);
     assert_eq!(code, 0);
     let v: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
     assert_landing_error(&v, "solve");
@@ -30,7 +32,7 @@ fn solve_json_has_the_landing_error() {
         "solve",
         "--json",
         "--nodes",
-        "10",
+        "12",
         "--interpolation",
         "linear",
     ]);
@@ -41,7 +43,7 @@ fn solve_json_has_the_landing_error() {
 
 #[test]
 fn solve_summary_prints_the_landing_error() {
-    let (code, stdout, _) = bellyflop(&["solve", "--quiet", "--nodes", "10"]);
+    let (code, stdout, _) = bellyflop(&["solve", "--quiet", "--nodes", "12"]);
     assert_eq!(code, 0);
     let line = stdout
         .lines()
@@ -55,13 +57,13 @@ fn solve_summary_prints_the_landing_error() {
 
 #[test]
 fn sweep_tabulates_each_n() {
-    let (code, stdout, _) = bellyflop(&["sweep", "--nodes", "10,12"]);
+    let (code, stdout, _) = bellyflop(&["sweep", "--nodes", "12,15"]);
     assert_eq!(code, 0, "{stdout}");
     let rows: Vec<&str> = stdout
         .lines()
         .filter(|l| {
             let first = l.split_whitespace().next().unwrap_or("");
-            first == "10" || first == "12"
+            first == "12" || first == "15"
         })
         .collect();
     assert_eq!(rows.len(), 2, "{stdout}");
@@ -71,12 +73,12 @@ fn sweep_tabulates_each_n() {
         assert_eq!(row.split_whitespace().count(), 10, "{row}");
     }
 
-    let (code, stdout, _) = bellyflop(&["sweep", "--nodes", "10,12", "--json"]);
+    let (code, stdout, _) = bellyflop(&["sweep", "--nodes", "12,15", "--json"]);
     assert_eq!(code, 0);
     let v: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
     let runs = v["runs"].as_array().unwrap();
     assert_eq!(runs.len(), 2);
-    for (run, n) in runs.iter().zip([10, 12]) {
+    for (run, n) in runs.iter().zip([12, 15]) {
         assert_eq!(run["nodes"], n);
         assert_eq!(run["status"], "solved");
         for key in ["tf_s", "final_mass_kg", "solve_time_ms"] {

@@ -151,7 +151,7 @@ fn solution_json_is_what_json_prints() {
     let (code, stdout, stderr) = bellyflop(&[
         "solve",
         "--nodes",
-        "10",
+        "12",
         "--json",
         "--out",
         dir.to_str().unwrap(),
@@ -181,7 +181,7 @@ fn quiet_suppresses_progress_and_file_list() {
     let (code, _, stderr) = bellyflop(&[
         "solve",
         "--nodes",
-        "10",
+        "12",
         "--quiet",
         "--out",
         dir.to_str().unwrap(),
@@ -194,7 +194,7 @@ fn quiet_suppresses_progress_and_file_list() {
 
 #[test]
 fn progress_lines_name_iteration_cost_step_vc_radius_ms() {
-    let (code, _, stderr) = bellyflop(&["solve", "--nodes", "10", "--method", "scvx"]);
+    let (code, _, stderr) = bellyflop(&["solve", "--nodes", "12", "--method", "scvx"]);
     assert_eq!(code, 0);
     let lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("iter")).collect();
     assert!(!lines.is_empty(), "{stderr}");
@@ -208,7 +208,7 @@ fn progress_lines_name_iteration_cost_step_vc_radius_ms() {
 /// The direct method's progress: infeasibilities, μ, step, regularization.
 #[test]
 fn direct_progress_lines_name_infeasibility_mu_step_and_regularization() {
-    let (code, _, stderr) = bellyflop(&["solve", "--nodes", "10", "--method", "direct"]);
+    let (code, _, stderr) = bellyflop(&["solve", "--nodes", "12", "--method", "direct"]);
     assert_eq!(code, 0);
     let lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("iter")).collect();
     assert!(lines.len() >= 5, "{stderr}");

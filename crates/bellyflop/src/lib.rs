@@ -11,13 +11,18 @@
 //! - [`solution`]: status, physical trajectory, checks and history;
 //! - [`replan`]: warm re-plans from the shifted previous plan;
 //! - [`propagate`]: landing precision by re-integrating the nonlinear model;
+//! - [`feasibility`]: certificates that no trajectory exists (a stopping bound);
+//! - [`accuracy`]: the re-integrated landing error of a `solved` answer against
+//!   its tolerances;
 //! - [`sim`]: the truth plant and Monte-Carlo dispersions for closed-loop guidance;
 //! - [`navigation`]: filters on the measured state (position, wind);
 //! - [`guidance`]: the closed loop — navigation, re-planning, control.
+pub mod accuracy;
 pub mod conic;
 pub mod direct;
 pub mod dynamics;
 pub mod error;
+pub mod feasibility;
 pub mod guidance;
 pub mod kkt;
 pub mod mesh;
@@ -39,10 +44,68 @@ pub use scvx::Observer;
 pub use solution::{Solution, Status};
 
 /// Solve a scenario with the method its settings name
-/// (`solver.method`: SCvx or the direct interior-point method).
+/// (`solver.method`: SCvx or the direct interior-point method), with
+/// statuses that are claims:
+///
+/// 1. a state that [`feasibility::certify`] proves infeasible is
+///    `infeasible` at once, its certificate the message, without solving;
+/// 2. a method that stops locally infeasible without a certificate gives
+///    `not_converged`: no trajectory was found, the method's reason, and that
+///    infeasibility is not proven;
+/// 3. a `solved` answer whose controls, re-integrated, land beyond the
+///    scenario's tolerances is `inaccurate` ([`accuracy::check`]).
+///
+/// `solve_time_ms` is the method's own time (the certificate's alone when it
+/// answers); the re-integration of step 3 is not counted. The methods on
+/// their own ([`scvx::solve`], [`direct::solve`], and the closed loop's
+/// re-plans) skip all three steps.
 pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
-    match scenario.solver.method {
+    let start = std::time::Instant::now();
+    if let Some(certificate) = feasibility::certify(scenario) {
+        return certified(scenario, &certificate, start);
+    }
+    let mut sol = match scenario.solver.method {
         Method::Scvx => scvx::solve(scenario, observer),
         Method::Direct => direct::solve(scenario, observer),
+    };
+    match sol.status {
+        Status::Infeasible => {
+            sol.status = Status::NotConverged;
+            sol.message = format!(
+                "no trajectory was found, but infeasibility is not proven ({}); try another discretization.tf_guess_s, the other method (solver.method or --method) or more nodes. The {} method stopped locally infeasible: {}",
+                feasibility::not_proven(scenario),
+                sol.method.as_str(),
+                sol.message
+            );
+        }
+        Status::Solved => accuracy::check(scenario, &mut sol),
+        _ => {}
     }
+    sol
+}
+
+/// The answer for a certified-infeasible scenario: status `infeasible`, the
+/// certificate as the message, and the straight-line guess as the trajectory
+/// (no iterations).
+fn certified(
+    scenario: &Scenario,
+    certificate: &feasibility::Certificate,
+    start: std::time::Instant,
+) -> Solution {
+    let tr = transcription::Transcription::new(scenario);
+    let d = &scenario.discretization;
+    let guess = scvx::straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
+    let checks = solution::check(&tr, &guess, 0.0);
+    let ms = start.elapsed().as_secs_f64() * 1e3;
+    let mut sol = Solution::new(
+        &tr,
+        guess,
+        Status::Infeasible,
+        certificate.to_string(),
+        checks,
+        Vec::new(),
+        ms,
+    );
+    sol.method = scenario.solver.method;
+    sol
 }

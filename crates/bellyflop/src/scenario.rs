@@ -202,6 +202,15 @@ pub struct SolverSettings {
     /// lateral error any more then returns the smallest miss instead of
     /// failing.
     pub terminal_lateral_weight: f64,
+    /// Largest re-integrated landing position error ‖(x, z)(t_f) − (x_f, z_f)‖
+    /// of a `solved` answer \[m\] ([`crate::accuracy`]); beyond it the status
+    /// is `inaccurate`. Default 5 m, six times the paper's case at N = 20
+    /// (0.81 m with both methods).
+    pub landing_position_tolerance_m: f64,
+    /// Largest re-integrated landing velocity error ‖(Vx, Vz)(t_f) − (Vx_f,
+    /// Vz_f)‖ [m/s]. Default 2 m/s, six times the paper's case at N = 20
+    /// (0.32 m/s).
+    pub landing_velocity_tolerance_mps: f64,
 }
 
 impl Default for SolverSettings {
@@ -230,6 +239,8 @@ impl Default for SolverSettings {
             thrust_margin_frac: 0.0,
             thrust_margin_weight: 100.0,
             terminal_lateral_weight: 0.0,
+            landing_position_tolerance_m: 5.0,
+            landing_velocity_tolerance_mps: 2.0,
         }
     }
 }

@@ -178,7 +178,7 @@ fn infeasibility_reason(tr: &Transcription, t: &Trajectory, vc: f64) -> String {
             "no trajectory was found on this mesh of N = {n} collocation points, which may be too coarse: try more nodes (discretization.nodes or --nodes, e.g. 20)"
         )
     } else {
-        "no trajectory meets the dynamics and boundary conditions".to_string()
+        "SCvx found no trajectory that meets the dynamics and boundary conditions".to_string()
     };
     let mut reason = format!(
         "{claim}: SCvx settled with virtual control {vc:.2e} (scaled); the largest violation is in the {} equation at t = {:.2} s",

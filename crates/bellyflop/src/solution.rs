@@ -15,13 +15,21 @@ pub enum Status {
     Solved,
     /// Converged, but the relaxation is not tight or the thrust points backwards.
     NonPhysical,
-    /// The iteration settled on a point that still needs virtual control:
-    /// no trajectory meets the dynamics, bounds and boundary conditions.
+    /// No trajectory exists. From [`crate::solve`] only with a certificate
+    /// ([`crate::feasibility`]), computed before solving. The methods on
+    /// their own ([`crate::scvx::solve`], [`crate::direct::solve`], the
+    /// closed loop's re-plans) also report a local infeasibility this way —
+    /// a point that still needs virtual control, or a failed feasibility
+    /// restoration — which [`crate::solve`] reports as `not_converged`.
     Infeasible,
     /// Iteration or trust-region limit reached; the best iterate is returned.
     NotConverged,
     /// The conic solver failed on every attempt.
     SolverFailed,
+    /// Converged and passes the checks, but its controls, re-integrated,
+    /// miss the target by more than the scenario's landing tolerances
+    /// ([`crate::accuracy`]; set by [`crate::solve`] only).
+    Inaccurate,
 }
 
 impl Status {
@@ -32,11 +40,13 @@ impl Status {
             Status::Infeasible => "infeasible",
             Status::NotConverged => "not_converged",
             Status::SolverFailed => "solver_failed",
+            Status::Inaccurate => "inaccurate",
         }
     }
 
     /// Process exit code: 0 solved, 3 infeasible, 4 not converged,
-    /// 5 non-physical, 6 solver failure (2 is bad input, before any solve).
+    /// 5 non-physical, 6 solver failure, 9 inaccurate (2 is bad input, before
+    /// any solve; `sim` uses 7 and 8).
     pub fn exit_code(self) -> i32 {
         match self {
             Status::Solved => 0,
@@ -44,6 +54,7 @@ impl Status {
             Status::NotConverged => 4,
             Status::NonPhysical => 5,
             Status::SolverFailed => 6,
+            Status::Inaccurate => 9,
         }
     }
 }

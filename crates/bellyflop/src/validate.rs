@@ -198,6 +198,12 @@ const RHO: Range = Range::closed_open(0.0, 1.0, "");
 const MARGIN: Range = Range::closed_open(0.0, 0.5, "");
 /// Weight of a soft constraint that may be off: 0 (off) to 1e12.
 const SOFT_WEIGHT: Range = Range::closed(0.0, 1e12, "");
+/// Landing position tolerance of a `solved` answer: at least 1 mm (the
+/// ground tolerance; the re-integration itself is accurate to ~1e-6 m, but
+/// no collocation answer lands closer), at most 1e6 m, which turns the check off.
+const LANDING_POSITION_TOLERANCE: Range = Range::closed(1e-3, 1e6, "m");
+/// Landing velocity tolerance: at least 1 mm/s, at most 1e4 m/s (off).
+const LANDING_VELOCITY_TOLERANCE: Range = Range::closed(1e-3, 1e4, "m/s");
 /// Trust-region shrink and grow factors: strictly above 1 (else the radius
 /// does not change), at most 100.
 const FACTOR: Range = Range::open_closed(1.0, 100.0, "");
@@ -376,6 +382,16 @@ fn solver(s: &SolverSettings) -> Result<(), InputError> {
             "solver.terminal_lateral_weight",
             s.terminal_lateral_weight,
             SOFT_WEIGHT,
+        ),
+        (
+            "solver.landing_position_tolerance_m",
+            s.landing_position_tolerance_m,
+            LANDING_POSITION_TOLERANCE,
+        ),
+        (
+            "solver.landing_velocity_tolerance_mps",
+            s.landing_velocity_tolerance_mps,
+            LANDING_VELOCITY_TOLERANCE,
         ),
     ])
 }

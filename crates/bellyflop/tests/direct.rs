@@ -18,6 +18,18 @@ fn direct_paper(edit: impl FnOnce(&mut Scenario)) -> Solution {
     solve(&s, &mut Silent)
 }
 
+/// The method alone (no certificate, no accuracy check): these tests compare
+/// the transcription's optimum with IPOPT's, whether or not its controls land
+/// within the tolerances once re-integrated (the dispersed states at N = 20
+/// miss by 0.6 to 21 m; `tests/accuracy.rs` and `tests/labelled.rs` judge that).
+fn direct_alone(edit: impl FnOnce(&mut Scenario)) -> Solution {
+    let mut s = Scenario::paper();
+    s.solver.method = Method::Direct;
+    edit(&mut s);
+    s.validate().expect("test scenario is valid");
+    direct::solve(&s, &mut Silent)
+}
+
 /// Solved, on IPOPT's optimum within 0.1 kg, and meets the collocation
 /// equations of the nonlinear problem.
 fn assert_reference(sol: &Solution, mass_kg: f64, tf_s: f64, what: &str) {
@@ -47,14 +59,14 @@ fn assert_reference(sol: &Solution, mass_kg: f64, tf_s: f64, what: &str) {
 #[test]
 fn paper_case_reaches_the_ipopt_optimum_at_n20_and_n40() {
     for (n, mass, tf) in [(20, 114_569.455, 11.56895), (40, 114_575.296, 11.56058)] {
-        let sol = direct_paper(|s| s.discretization.nodes = n);
+        let sol = direct_alone(|s| s.discretization.nodes = n);
         assert_reference(&sol, mass, tf, &format!("N = {n}"));
     }
 }
 
 #[test]
 fn hp_mesh_reaches_the_ipopt_optimum() {
-    let sol = direct_paper(|s| s.discretization.intervals = 4);
+    let sol = direct_alone(|s| s.discretization.intervals = 4);
     assert_reference(&sol, 114_574.792, 11.56338, "N = 20, M = 4");
 }
 
@@ -94,7 +106,7 @@ fn six_dispersed_states_reach_the_ipopt_optimum() {
         ),
     ];
     for (x, mass, tf) in cases {
-        let sol = direct_paper(|s| {
+        let sol = direct_alone(|s| {
             let i = &mut s.initial;
             (i.x_m, i.z_m, i.vx_mps, i.vz_mps, i.theta_deg, i.mass_kg) =
                 (x[0], x[1], x[2], x[3], x[4], x[5]);
@@ -105,15 +117,32 @@ fn six_dispersed_states_reach_the_ipopt_optimum() {
     }
 }
 
+/// 100 m up at 85 m/s: the method alone ends locally infeasible (its
+/// restoration stalls); `bellyflop::solve` has the stopping bound's
+/// certificate and does not solve.
 #[test]
 fn too_low_to_stop_is_infeasible_with_a_reason() {
+    let mut s = Scenario::paper();
+    s.solver.method = Method::Direct;
+    s.initial.z_m = 100.0;
+    let alone = direct::solve(&s, &mut Silent);
+    assert_eq!(alone.status, Status::Infeasible, "{}", alone.message);
+    assert!(
+        alone.message.contains("locally infeasible"),
+        "{}",
+        alone.message
+    );
+    assert!(alone.trajectory.is_finite());
     let sol = direct_paper(|s| s.initial.z_m = 100.0);
     assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
     assert!(
-        sol.message.contains("locally infeasible"),
+        sol.message.starts_with(
+            "no trajectory exists (certified before solving by the vertical stopping bound)"
+        ),
         "{}",
         sol.message
     );
+    assert_eq!((sol.iterations, sol.method), (0, Method::Direct));
     assert!(sol.trajectory.is_finite());
 }
 

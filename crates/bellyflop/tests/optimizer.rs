@@ -172,23 +172,52 @@ fn dispersed_initial_states_are_physical() {
     }
 }
 
+/// `bellyflop::solve` of an edited paper case with SCvx (certificate and
+/// accuracy check included, unlike [`solve_paper`]).
+fn claim_paper(edit: impl FnOnce(&mut Scenario)) -> Solution {
+    let mut s = Scenario::paper();
+    s.solver.method = bellyflop::Method::Scvx;
+    edit(&mut s);
+    s.validate().expect("test scenario is valid");
+    bellyflop::solve(&s, &mut Silent)
+}
+
 #[test]
 fn too_low_and_too_fast_is_infeasible() {
-    // 100 m up at 85 m/s: even T_max plus drag cannot stop the fall.
+    // 100 m up at 85 m/s: even T_max plus drag cannot stop the fall. SCvx
+    // alone settles locally infeasible; the stopping bound proves it (at
+    // least 238.8 m are needed), so `bellyflop::solve` says so without solving.
     let sol = solve_paper(|s| s.initial.z_m = 100.0);
     assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
     assert!(sol.message.contains("no trajectory"), "{}", sol.message);
-    assert_eq!(sol.status.exit_code(), 3);
+    let claim = claim_paper(|s| s.initial.z_m = 100.0);
+    assert_eq!(claim.status, Status::Infeasible, "{}", claim.message);
+    assert_eq!(claim.iterations, 0);
+    assert!(
+        claim.message.contains("stopping bound"),
+        "{}",
+        claim.message
+    );
+    assert_eq!(claim.status.exit_code(), 3);
 }
 
 #[test]
 fn too_little_propellant_is_infeasible() {
-    let sol = solve_paper(|s| {
+    let low = |s: &mut Scenario| {
         s.initial.mass_kg = 86_000.0;
         s.discretization.final_mass_guess_kg = 85_500.0;
-    });
+    };
+    let sol = solve_paper(low);
     assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
     assert!(sol.message.contains("propellant"), "{}", sol.message);
+    // Certified: 1,000 kg last at most 3.68 s, too short to stop the descent.
+    let claim = claim_paper(low);
+    assert_eq!(claim.status, Status::Infeasible, "{}", claim.message);
+    assert!(
+        claim.message.contains("propellant bound"),
+        "{}",
+        claim.message
+    );
 }
 
 #[test]
@@ -539,8 +568,23 @@ fn coarse_mesh_infeasibility_suggests_more_nodes() {
     assert_eq!(fine.status, Status::Infeasible, "{}", fine.message);
     assert!(!fine.message.contains("more nodes"), "{}", fine.message);
     assert!(
-        fine.message.starts_with("no trajectory meets"),
+        fine.message
+            .starts_with("SCvx found no trajectory that meets"),
         "{}",
         fine.message
+    );
+    // No certificate covers N = 4 (the paper's case solves from N = 5 on):
+    // `bellyflop::solve` says that none was found, why, and that
+    // infeasibility is not proven.
+    let claim = claim_paper(|s| s.discretization.nodes = 4);
+    assert_eq!(claim.status, Status::NotConverged, "{}", claim.message);
+    assert_eq!(claim.status.exit_code(), 4);
+    assert!(
+        claim.message.starts_with(
+            "no trajectory was found, but infeasibility is not proven (the vertical stopping bound needs only 238.8 m of the 600.0 m available)"
+        ) && claim.message.contains("mesh of N = 4")
+            && claim.message.contains("try more nodes"),
+        "{}",
+        claim.message
     );
 }
