@@ -111,24 +111,8 @@ impl Nlp {
         scale[slot::DELTA] = model.max_gimbal_rad;
         scale[slot::T] = model.max_thrust_n;
         scale[slot::CHI] = model.max_gimbal_rate_radps;
-        let x0 = [
-            i.x_m,
-            i.z_m,
-            i.vx_mps,
-            i.vz_mps,
-            i.theta_deg.to_radians(),
-            i.pitch_rate_degps.to_radians(),
-            m0,
-            i.gimbal_deg.to_radians(),
-        ];
-        let xf = [
-            t.x_m,
-            t.z_m,
-            t.vx_mps,
-            t.vz_mps,
-            t.theta_deg.to_radians(),
-            t.pitch_rate_degps.to_radians(),
-        ];
+        let x0 = i.state_si();
+        let xf = t.state_si();
         let n = d.nodes;
         let mut d_cols = vec![Vec::new(); n + 1];
         for row in 0..n {

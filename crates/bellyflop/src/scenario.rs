@@ -65,6 +65,22 @@ pub struct InitialState {
     pub gimbal_deg: f64,
 }
 
+impl InitialState {
+    /// (x, z, Vx, Vz, θ, w, m, δ) in SI units and radians (P2's state order).
+    pub fn state_si(&self) -> [f64; 8] {
+        [
+            self.x_m,
+            self.z_m,
+            self.vx_mps,
+            self.vz_mps,
+            self.theta_deg.to_radians(),
+            self.pitch_rate_degps.to_radians(),
+            self.mass_kg,
+            self.gimbal_deg.to_radians(),
+        ]
+    }
+}
+
 /// The touchdown state (Eq. 4, x|1:6(t_f) = x_f). Mass is free above m_dry.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -75,6 +91,20 @@ pub struct TerminalState {
     pub vz_mps: f64,
     pub theta_deg: f64,
     pub pitch_rate_degps: f64,
+}
+
+impl TerminalState {
+    /// (x, z, Vx, Vz, θ, w) in SI units and radians.
+    pub fn state_si(&self) -> [f64; 6] {
+        [
+            self.x_m,
+            self.z_m,
+            self.vx_mps,
+            self.vz_mps,
+            self.theta_deg.to_radians(),
+            self.pitch_rate_degps.to_radians(),
+        ]
+    }
 }
 
 /// Which form of the thrust-direction constraint the subproblem uses.

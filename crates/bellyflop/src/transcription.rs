@@ -311,24 +311,10 @@ impl Transcription {
         let scaling = Scaling::new(s, &model, form);
         let i = &s.initial;
         let t = &s.terminal;
-        let x0 = [
-            i.x_m,
-            i.z_m,
-            i.vx_mps,
-            i.vz_mps,
-            i.theta_deg.to_radians(),
-            i.pitch_rate_degps.to_radians(),
-            i.mass_kg.ln(),
-            i.gimbal_deg.to_radians(),
-        ];
-        let xf = [
-            t.x_m,
-            t.z_m,
-            t.vx_mps,
-            t.vz_mps,
-            t.theta_deg.to_radians(),
-            t.pitch_rate_degps.to_radians(),
-        ];
+        // The LCvx state carries ω = ln m where P2 carries m.
+        let mut x0 = i.state_si();
+        x0[ix::OMEGA] = i.mass_kg.ln();
+        let xf = t.state_si();
         let mut tr = Transcription {
             mesh: Mesh::uniform(nodes, s.discretization.intervals),
             model,
