@@ -697,7 +697,7 @@ impl<'a> Driver<'a> {
             zl,
             zu,
         };
-        self.evaluate(&it.w.clone(), &it.lambda.clone());
+        self.evaluate(&it.w, &it.lambda);
         match lambda0 {
             Some(l) if l.len() == nc => it.lambda.copy_from_slice(l),
             _ => self.initial_multipliers(&mut it),
@@ -865,7 +865,7 @@ impl<'a> Driver<'a> {
             std::mem::take(&mut self.ws.dzu),
         );
         let dw = std::mem::take(&mut self.ws.dw);
-        let ad = self.dual_step_to_boundary(it, &dw, &mut dzl, &mut dzu);
+        let ad = self.dual_step(it, &dw, &mut dzl, &mut dzu, (0.0, 1.0));
         let ap = self.bounds.max_step(&it.w, &dw, 1.0);
         (self.ws.dzl, self.ws.dzu, self.ws.dw) = (dzl, dzu, dw);
         self.mu = mu;
@@ -875,54 +875,33 @@ impl<'a> Driver<'a> {
         (sigma * avg).clamp(self.settings.tolerance / 10.0, 1e3)
     }
 
-    /// [`Driver::dual_step`] with μ = 0 and the full step to the boundary (τ = 1).
-    fn dual_step_to_boundary(
+    /// Bound-multiplier step dz from dw (Eq. 13) at barrier `mu` into `dzl`,
+    /// `dzu`, and its largest step α_z at fraction to the boundary `tau`
+    /// (μ = 0, τ = 1 for Mehrotra's affine probe).
+    fn dual_step(
         &self,
         it: &Iterate,
         dw: &[f64],
         dzl: &mut [f64],
         dzu: &mut [f64],
+        (mu, tau): (f64, f64),
     ) -> f64 {
-        let b = &self.bounds;
-        let mut a = 1.0f64;
-        for j in 0..it.w.len() {
-            if b.has_lo[j] {
-                let s = it.w[j] - b.lo[j];
-                dzl[j] = -it.zl[j] - it.zl[j] / s * dw[j];
-                if dzl[j] < 0.0 {
-                    a = a.min(-it.zl[j] / dzl[j]);
-                }
-            }
-            if b.has_hi[j] {
-                let s = b.hi[j] - it.w[j];
-                dzu[j] = -it.zu[j] + it.zu[j] / s * dw[j];
-                if dzu[j] < 0.0 {
-                    a = a.min(-it.zu[j] / dzu[j]);
-                }
-            }
-        }
-        a
-    }
-
-    /// Bound-multiplier step dz from dw (Eq. 13) into `dzl`, `dzu`, and its
-    /// largest step α_z.
-    fn dual_step(&self, it: &Iterate, dw: &[f64], dzl: &mut [f64], dzu: &mut [f64]) -> f64 {
         let b = &self.bounds;
         let n = it.w.len();
         let mut a = 1.0f64;
         for j in 0..n {
             if b.has_lo[j] {
                 let s = it.w[j] - b.lo[j];
-                dzl[j] = self.mu / s - it.zl[j] - it.zl[j] / s * dw[j];
+                dzl[j] = mu / s - it.zl[j] - it.zl[j] / s * dw[j];
                 if dzl[j] < 0.0 {
-                    a = a.min(-self.tau * it.zl[j] / dzl[j]);
+                    a = a.min(-tau * it.zl[j] / dzl[j]);
                 }
             }
             if b.has_hi[j] {
                 let s = b.hi[j] - it.w[j];
-                dzu[j] = self.mu / s - it.zu[j] + it.zu[j] / s * dw[j];
+                dzu[j] = mu / s - it.zu[j] + it.zu[j] / s * dw[j];
                 if dzu[j] < 0.0 {
-                    a = a.min(-self.tau * it.zu[j] / dzu[j]);
+                    a = a.min(-tau * it.zu[j] / dzu[j]);
                 }
             }
         }
@@ -936,7 +915,7 @@ impl<'a> Driver<'a> {
             std::mem::take(&mut self.ws.dzl),
             std::mem::take(&mut self.ws.dzu),
         );
-        let az = self.dual_step(it, dw, &mut dzl, &mut dzu);
+        let az = self.dual_step(it, dw, &mut dzl, &mut dzu, (self.mu, self.tau));
         for j in 0..it.w.len() {
             it.w[j] += alpha * dw[j];
         }
