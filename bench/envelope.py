@@ -13,6 +13,7 @@ solver starts from its straight-line guess on the same N-point global LGR mesh.
     bench/envelope.py                          # 100 + 50 states, N = 20 and 40
     bench/envelope.py --box 10 --wide 5 --nodes 20 --table
     bench/envelope.py --methods direct         # skip SCvx
+    bench/envelope.py --methods direct --save /tmp/envelope{n}.csv   # then examples/envelope_direct.rs
 
 The reference runs with --ground, bellyflop's ground bound z >= z_f, so that
 both solve the same program (without it IPOPT's answer dips below the pad on
@@ -95,6 +96,7 @@ def main():
     ap.add_argument("--repeat", type=int, default=3, help="timing runs of IPOPT and the direct method")
     ap.add_argument("--scvx-repeat", type=int, default=1, help="timing runs of SCvx (10x slower)")
     ap.add_argument("--table", action="store_true", help="one line per state")
+    ap.add_argument("--save", metavar="CSV", help="write each state and IPOPT's answer (for examples/envelope_direct.rs)")
     ap.add_argument("--direct", action="append", default=[],
                     help="a line for the scenario's [solver.direct] table (repeatable)")
     args = ap.parse_args()
@@ -124,6 +126,18 @@ def main():
                         n, name, cols, "ok" if ref["success"] else "FAILED", ref["ipopt_iterations"],
                         ref["solve_time_ms"], ref["final_mass_kg"]), flush=True)
             summarize(n, methods, rows)
+            if args.save:
+                save(Path(args.save.replace("{n}", str(n))), rows)
+
+
+def save(path, rows):
+    """One line per state: its name, its six values and IPOPT's answer."""
+    with path.open("w") as f:
+        f.write("name,x_m,z_m,vx_mps,vz_mps,theta_deg,mass_kg,ipopt_success,ipopt_final_mass_kg,ipopt_iterations,ipopt_ms\n")
+        for name, state, ref, _ in rows:
+            f.write(",".join([name] + [f"{v:.3f}" for v in state]
+                             + [str(int(ref["success"])), f"{ref['final_mass_kg']:.4f}", str(ref["ipopt_iterations"]),
+                                f"{ref['solve_time_ms']:.3f}"]) + "\n")
 
 
 # A converged NLP: `solved`, or `inaccurate` (solved, but its controls,

@@ -218,6 +218,8 @@ pub const DOCS: &[Doc] = &[
         "Initial barrier parameter mu_0."),
     doc!("solver.direct", "coarse_nodes", "", Allowed::Count { lo: 0, hi: 100 },
         "Coarse-to-fine start: solve first on a global mesh of this many points, then start the scenario's mesh from that answer; 0 starts from the straight line."),
+    doc!("solver.direct", "coarse_tolerance", "scaled", TOLERANCE,
+        "Tolerance of the coarse start's solve: it only places the fine solve near its optimum."),
     doc!("solver.direct", "mu_strategy", "", Allowed::Choice(MU_STRATEGIES),
         "How the barrier parameter falls: \"monotone\" (Fiacco-McCormick, IPOPT's default) or \"adaptive\" (Mehrotra's probing rule each iteration, falling back to monotone when the optimality error stalls)."),
     // SCvx (Section 3.4; trust region of Mao, Szmuk and Acikmese 2016).

@@ -53,6 +53,11 @@ pub struct DirectSettings {
     /// N = 20 and 3.0× → 6.1× at N = 40, and it reaches IPOPT's optimum on
     /// the two states of 150 where the straight line led to a worse one.
     pub coarse_nodes: usize,
+    /// Tolerance of the coarse start's solve (its E_0, as `tolerance`). The
+    /// coarse answer only places the fine solve near its optimum: converging
+    /// it further is work that the fine mesh redoes (its μ restarts at
+    /// [`WARM_MU`]). Default 1e-2 (BENCHMARKS.md "Direct method").
+    pub coarse_tolerance: f64,
 }
 
 /// μ_0 of the fine solve after a coarse start, and of warm starts.
@@ -82,6 +87,7 @@ impl Default for DirectSettings {
             mu_init: 0.1,
             mu_strategy: MuStrategy::Monotone,
             coarse_nodes: 10,
+            coarse_tolerance: 1e-2,
         }
     }
 }
@@ -1254,7 +1260,11 @@ pub fn solve(scenario: &crate::Scenario, observer: &mut dyn Observer) -> crate::
     coarse.discretization.intervals = 1;
     let cnlp = Nlp::new(&coarse);
     let cw0 = cnlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
-    let mut first = solve_nlp(&cnlp, &cw0, None, &scenario.solver.direct, observer);
+    let coarse_settings = DirectSettings {
+        tolerance: scenario.solver.direct.coarse_tolerance,
+        ..scenario.solver.direct.clone()
+    };
+    let mut first = solve_nlp(&cnlp, &cw0, None, &coarse_settings, observer);
     spent.append(&mut first.history);
     let mut budget = scenario.clone();
     budget.solver.direct.max_iterations = scenario

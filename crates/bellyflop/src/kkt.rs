@@ -468,7 +468,9 @@ impl KktSolver {
             }
         }
         let mut a = kkt.h_tt;
-        self.p.iter_mut().for_each(|v| *v = 0.0);
+        // P is not cleared: every factorization writes the same entries (the
+        // free slots and D's nonzeros do not change), and the others stay at
+        // the zeros of `new` (clearing it was 1.5 % of a solve at N = 20).
         // Per node: P, g, a; the cross terms R_k and T_k are kept for later.
         for k in 0..=n {
             let sl = &self.slots[k];

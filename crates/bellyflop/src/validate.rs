@@ -334,6 +334,11 @@ fn solver(s: &SolverSettings) -> Result<(), InputError> {
     )?;
     check_all(&[
         ("solver.direct.tolerance", s.direct.tolerance, TOLERANCE),
+        (
+            "solver.direct.coarse_tolerance",
+            s.direct.coarse_tolerance,
+            TOLERANCE,
+        ),
         ("solver.direct.mu_init", s.direct.mu_init, MU_INIT),
     ])?;
     count_in_range(

@@ -167,10 +167,21 @@ fn iteration_limit_is_not_converged_with_the_last_iterate() {
             "not yet feasible after 4 iterations"
         );
     }
-    // A limit that the coarse phase does not use up leaves the rest to the fine one.
-    let sol = direct_paper(|s| s.solver.direct.max_iterations = 30);
+    // A limit that the coarse phase does not use up leaves the rest to the
+    // fine one: halfway between the coarse phase's end and convergence.
+    let full = direct_paper(|_| ());
+    assert_eq!(full.status, Status::Solved);
+    let coarse = full
+        .direct_history
+        .iter()
+        .filter(|h| h.mesh_nodes == 10)
+        .count();
+    let limit = (coarse + full.iterations) / 2;
+    assert!(coarse < limit && limit < full.iterations);
+    let sol = direct_paper(|s| s.solver.direct.max_iterations = limit);
     assert_eq!(sol.status, Status::NotConverged, "{}", sol.message);
-    assert_eq!(sol.iterations, 30);
+    assert_eq!(sol.iterations, limit);
+    assert!(sol.direct_history.iter().any(|h| h.mesh_nodes == 20));
 }
 
 /// The coarse start and the straight line reach the same optimum.
