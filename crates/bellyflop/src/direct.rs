@@ -427,8 +427,7 @@ impl<'a> Driver<'a> {
 
     /// ∇f + Jᵀλ into ws.grad (without the bound multipliers).
     fn lagrangian_gradient(&mut self, w: &[f64], lambda: &[f64]) {
-        self.ws.grad.iter_mut().for_each(|g| *g = 0.0);
-        self.ws.grad[self.nlp.objective_gradient_index()] = -1.0;
+        self.nlp.objective_gradient(w, &mut self.ws.grad);
         self.nlp
             .add_jt_lambda(w, &self.ws.jac, lambda, &mut self.ws.grad);
     }
@@ -656,12 +655,9 @@ impl<'a> Driver<'a> {
         self.ws.kkt.delta_c = 0.0;
         let inertia = self.factor_with(0.0, 0.0, 1.0);
         if self.correct_inertia(inertia) {
+            nlp.objective_gradient(&it.w, &mut self.ws.grad);
             for j in 0..it.w.len() {
-                let g = if j == nlp.objective_gradient_index() {
-                    -1.0
-                } else {
-                    0.0
-                };
+                let g = self.ws.grad[j];
                 self.ws.rw[j] = if self.bounds.free[j] {
                     -(g - it.zl[j] + it.zu[j])
                 } else {
@@ -1211,6 +1207,7 @@ pub fn lagrangian_blocks(
             kkt.j_t[k][r] = -half_scale * d.f[r];
         }
     }
+    nlp.add_objective_hessian(w, &mut kkt.w);
     kkt.h_tt = 0.0;
     kkt.delta_c = 0.0;
 }
@@ -1225,7 +1222,7 @@ pub fn checks(nlp: &Nlp, w: &[f64]) -> crate::solution::Checks {
     let m = &nlp.model;
     let mut bound = 0.0f64;
     for i in 0..nlp.n {
-        let t = nlp.physical(slot::T, w[nlp.idx(i, slot::T)]);
+        let t = nlp.thrust_n(w, i);
         bound = bound.max(m.min_thrust_n - t).max(t - m.max_thrust_n);
     }
     let z_f = nlp.xf[slot::Z];
@@ -1399,7 +1396,7 @@ mod tests {
             })
             .collect();
         let mut g = vec![0.0; nlp.n_var()];
-        g[nlp.objective_gradient_index()] = -1.0;
+        nlp.objective_gradient(w, &mut g);
         nlp.add_jt_lambda(w, &jac, lambda, &mut g);
         g
     }
@@ -1407,15 +1404,27 @@ mod tests {
     /// The KKT blocks are the derivatives of the whole NLP: J·v against
     /// differences of c, Jᵀλ against differences of λᵀc, and H·v against
     /// differences of ∇L, including every t_f term, on the global mesh and
-    /// on an hp mesh.
+    /// on an hp mesh, and with the soft terms (the margin's slacks in use).
     #[test]
     fn kkt_blocks_match_finite_differences() {
-        for (nodes, intervals) in [(7, 1), (9, 3)] {
+        for (nodes, intervals, soft) in [(7, 1, false), (9, 3, false), (7, 1, true)] {
             let mut s = Scenario::paper();
             s.discretization.nodes = nodes;
             s.discretization.intervals = intervals;
+            if soft {
+                s.solver.thrust_margin_frac = 0.1;
+                s.solver.thrust_margin_weight = 3.0;
+                s.solver.terminal_lateral_weight = 2.0;
+            }
             let nlp = Nlp::new(&s);
             let mut w = nlp.straight_line(11.0, 114_000.0);
+            if soft {
+                use crate::nlp::slot;
+                for i in 0..nlp.n {
+                    let s = if i % 2 == 0 { slot::ABOVE } else { slot::BELOW };
+                    w[nlp.idx(i, s)] = 0.01 * (1.0 + i as f64);
+                }
+            }
             let nv = nlp.n_var();
             let v: Vec<f64> = (0..nv)
                 .map(|j| {
@@ -1474,6 +1483,22 @@ mod tests {
             // Jᵀλ = K [0; λ] on the free variables, against ∇(λᵀc) by differences.
             kkt.multiply(&nlp, &vec![0.0; nv], &lambda, &mut yw, &mut yl);
             let g = lagrangian_gradient(&nlp, &w, &lambda);
+            let mut grad_f = vec![0.0; nv];
+            nlp.objective_gradient(&w, &mut grad_f);
+            // ∇f against differences of f.
+            for j in 0..nv {
+                if nlp.is_fixed(j) {
+                    continue;
+                }
+                let (mut e, mut f) = (w.clone(), w.clone());
+                e[j] += h;
+                f[j] -= h;
+                let fd = (nlp.objective(&e) - nlp.objective(&f)) / (2.0 * h);
+                assert!(
+                    (fd - grad_f[j]).abs() < 1e-6 * (1.0 + fd.abs()),
+                    "(∇f)[{j}]"
+                );
+            }
             for j in 0..nv {
                 if nlp.is_fixed(j) {
                     continue;
@@ -1488,11 +1513,7 @@ mod tests {
                 let fd: f64 = (0..nlp.n_con())
                     .map(|r| lambda[r] * (c1[r] - c2[r]) / (2.0 * h))
                     .sum();
-                let obj = if j == nlp.objective_gradient_index() {
-                    -1.0
-                } else {
-                    0.0
-                };
+                let obj = grad_f[j];
                 assert!(
                     (fd + obj - g[j]).abs() < 1e-6 * (1.0 + fd.abs()),
                     "grad[{j}]"

@@ -97,6 +97,12 @@ pub struct GuidanceConfig {
     /// within 1 cm and 0.03 m/s, and 12 runs the campaign 25 % faster than
     /// 20. Range 1 to 1000.
     pub replan_max_iterations: usize,
+    /// The planner's method, for the first plan and the re-plans: `scvx`
+    /// (default, with which the other defaults were tuned) or `direct`.
+    pub replan_method: crate::Method,
+    /// Deadline of a direct re-plan, as an interior-point iteration budget.
+    /// Default [`crate::replan::DIRECT_REPLAN_ITERATIONS`]. Range 1 to 1000.
+    pub replan_direct_max_iterations: usize,
     /// Iterations of the re-plans' relaxed first phase (the paper's
     /// formulation, [`crate::replan::Planner::warm_relaxed_iterations`]),
     /// within the budget; the cold first plan keeps the scenario's
@@ -232,6 +238,8 @@ impl Default for GuidanceConfig {
             replan: true,
             replan_rate_hz: 2.0,
             replan_max_iterations: 12,
+            replan_method: crate::Method::Scvx,
+            replan_direct_max_iterations: crate::replan::DIRECT_REPLAN_ITERATIONS,
             replan_relaxed_iterations: 0,
             replan_proximal_weight: 0.0,
             replan_second_order_correction: false,
@@ -271,6 +279,11 @@ impl GuidanceConfig {
             1.0,
             1000.0,
             false,
+        )?;
+        crate::validate::count_in_range(
+            "guidance.replan_direct_max_iterations",
+            self.replan_direct_max_iterations,
+            (1, 1000),
         )?;
         check(
             "terminal_lateral_weight",
@@ -518,9 +531,12 @@ pub fn fly(
         s0.discretization.final_mass_guess_kg,
     );
     let mut planner = Planner::new(scenario.clone());
+    planner.method = guidance.replan_method;
+    planner.direct_max_iterations = guidance.replan_direct_max_iterations;
     let (mut first_plan, mut nominal) = (None, false);
     if s0.validate().is_ok() {
         let mut p = Planner::new(s0);
+        p.method = guidance.replan_method;
         let sol = p.cold(&mut Silent);
         if sol.status == Status::Solved {
             planner.plan = p.plan;

@@ -245,7 +245,12 @@ fn lblt_inertia(diag: impl Fn(usize) -> f64, sub: &[f64], n: usize) -> Inertia {
         if i + 1 < n && sub[i] != 0.0 {
             let (a, b, c) = (diag(i), sub[i], diag(i + 1));
             let det = a * c - b * b;
-            if det.abs() <= ZERO_PIVOT * scale * scale || !det.is_finite() {
+            // The block's smaller eigenvalue is about det / (its larger),
+            // which is what the threshold compares; det against scale²
+            // called a block singular that pairs a barrier term of 1e13
+            // (a soft margin's slack at its bound) with a pivot of order 1.
+            let big = a.abs().max(c.abs()).max(b.abs());
+            if det.abs() <= ZERO_PIVOT * scale * big || !det.is_finite() {
                 inertia.zero += 2;
             } else if det < 0.0 {
                 inertia.positive += 1;

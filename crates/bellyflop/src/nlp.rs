@@ -29,8 +29,9 @@ use crate::transcription::Scaling;
 
 /// States of P2 at a node: x, z, Vx, Vz, θ, w, m, δ.
 pub const NS: usize = 8;
-/// Controls of P2: T, χ.
-pub const NC: usize = 2;
+/// Controls of P2: T, χ, and the soft thrust margin's two slacks (fixed at
+/// zero unless the margin is on, [`SoftTerms`]).
+pub const NC: usize = 4;
 /// Local slots per node: the states, then the controls.
 pub const NL: usize = NS + NC;
 
@@ -46,6 +47,10 @@ pub mod slot {
     pub const DELTA: usize = 7;
     pub const T: usize = 8;
     pub const CHI: usize = 9;
+    /// Thrust used above the soft margin's band, and below it: the thrust
+    /// is T + ABOVE − BELOW.
+    pub const ABOVE: usize = 10;
+    pub const BELOW: usize = 11;
 }
 
 /// The slots that enter f nonlinearly, in the order of the dual directions.
@@ -91,6 +96,43 @@ pub struct Nlp {
     pub xf: [f64; 6],
     /// For each node k: the collocation points i with D_ik ≠ 0 and D_ik.
     pub d_cols: Vec<Vec<(usize, f64)>>,
+    /// Soft constraints of closed-loop plans, in the objective.
+    pub soft: SoftTerms,
+}
+
+/// The soft constraints of [`crate::scenario::SolverSettings`], as exact
+/// penalties in the objective, in scaled units:
+///
+/// - thrust margin: the thrust is T + A − B with T in the band
+///   [T_lo, T_hi] = [(1+μ)·T_min, (1−μ)·T_max] and the slacks
+///   A ∈ [0, T_max − T_hi], B ∈ [0, T_lo − T_min] (slots `ABOVE`,
+///   `BELOW`), at a cost w_T Σ_i (Â_i + B̂_i): linear, as SCvx's slack is. A
+///   smoothed hinge in T instead (tried) keeps the thrust some 100·ε below
+///   the band's edge and cost 285 kg on the paper's case at ε = 1e-3, while
+///   ε = 1e-5 took 229 iterations;
+/// - terminal lateral: w_x (ρ(x̂_N − x̂_f) + ρ(V̂x_N − V̂x_f)), with x_N and
+///   Vx_N free and the smoothed absolute value ρ(u) = √(u² + ε²) − ε
+///   ([`SOFT_EPS`]), twice differentiable as Newton's method needs.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SoftTerms {
+    /// w_T (0: no soft margin) and the band [T_lo, T_hi] \[N\].
+    pub margin_weight: f64,
+    pub margin_band_n: (f64, f64),
+    /// w_x (0: terminal x and Vx are fixed).
+    pub lateral_weight: f64,
+    /// x̂_f and V̂x_f.
+    pub lateral_target: (f64, f64),
+}
+
+/// Smoothing ε of the soft terminal x and Vx (scaled units: 1e-3 of the
+/// state's scale, some 0.1 m of position, is where the penalty turns from
+/// quadratic to linear).
+pub const SOFT_EPS: f64 = 1e-3;
+
+/// Smoothed absolute value ρ(u) = √(u² + ε²) − ε and its first two derivatives.
+fn smooth_abs(u: f64) -> (f64, f64, f64) {
+    let r = (u * u + SOFT_EPS * SOFT_EPS).sqrt();
+    (r - SOFT_EPS, u / r, SOFT_EPS * SOFT_EPS / (r * r * r))
 }
 
 impl Nlp {
@@ -110,6 +152,8 @@ impl Nlp {
         scale[slot::M] = m0 - model.dry_mass_kg;
         scale[slot::DELTA] = model.max_gimbal_rad;
         scale[slot::T] = model.max_thrust_n;
+        scale[slot::ABOVE] = model.max_thrust_n;
+        scale[slot::BELOW] = model.max_thrust_n;
         scale[slot::CHI] = model.max_gimbal_rate_radps;
         let x0 = i.state_si();
         let xf = t.state_si();
@@ -135,7 +179,24 @@ impl Nlp {
             x0,
             xf,
             d_cols,
+            soft: SoftTerms::default(),
         };
+        let sv = &s.solver;
+        let (t_min, t_max) = (nlp.model.min_thrust_n, nlp.model.max_thrust_n);
+        if sv.thrust_margin_frac > 0.0 {
+            nlp.soft.margin_weight = sv.thrust_margin_weight;
+            nlp.soft.margin_band_n = (
+                t_min * (1.0 + sv.thrust_margin_frac),
+                t_max * (1.0 - sv.thrust_margin_frac),
+            );
+        }
+        if sv.terminal_lateral_weight > 0.0 {
+            nlp.soft.lateral_weight = sv.terminal_lateral_weight;
+            nlp.soft.lateral_target = (
+                nlp.scaled(slot::X, xf[slot::X]),
+                nlp.scaled(slot::VX, xf[slot::VX]),
+            );
+        }
         nlp.set_bounds(t.z_m);
         nlp
     }
@@ -211,10 +272,26 @@ impl Nlp {
                 for s in 0..6 {
                     set(&mut lo, &mut hi, k, s, self.xf[s], self.xf[s]);
                 }
-                set(&mut lo, &mut hi, k, slot::T, 0.0, 0.0);
-                set(&mut lo, &mut hi, k, slot::CHI, 0.0, 0.0);
+                if self.soft.lateral_weight > 0.0 {
+                    for s in [slot::X, slot::VX] {
+                        lo[k * NL + s] = f64::NEG_INFINITY;
+                        hi[k * NL + s] = f64::INFINITY;
+                    }
+                }
+                for s in NS..NL {
+                    set(&mut lo, &mut hi, k, s, 0.0, 0.0);
+                }
+            } else if self.soft.margin_weight > 0.0 {
+                let (t_lo, t_hi) = self.soft.margin_band_n;
+                set(&mut lo, &mut hi, k, slot::T, t_lo, t_hi);
+                set(&mut lo, &mut hi, k, slot::ABOVE, 0.0, m.max_thrust_n - t_hi);
+                set(&mut lo, &mut hi, k, slot::BELOW, 0.0, t_lo - m.min_thrust_n);
             } else {
                 set(&mut lo, &mut hi, k, slot::T, m.min_thrust_n, m.max_thrust_n);
+                set(&mut lo, &mut hi, k, slot::ABOVE, 0.0, 0.0);
+                set(&mut lo, &mut hi, k, slot::BELOW, 0.0, 0.0);
+            }
+            if k < n {
                 let c = m.max_gimbal_rate_radps;
                 set(&mut lo, &mut hi, k, slot::CHI, -c, c);
             }
@@ -260,18 +337,65 @@ impl Nlp {
         self.tf_scale * w[self.tf_idx()]
     }
 
-    /// Objective −ŵ_m(t_f): maximize the final mass (Eq. 6).
+    /// Objective −ŵ_m(t_f) (maximize the final mass, Eq. 6) plus the soft
+    /// terms ([`SoftTerms`]).
     pub fn objective(&self, w: &[f64]) -> f64 {
-        -w[self.idx(self.n, slot::M)]
+        let mut f = -w[self.idx(self.n, slot::M)];
+        self.for_each_soft_term(w, |_, (v, _, _)| f += v);
+        f
     }
 
-    /// Index of the one nonzero of ∇f (its value is −1).
-    pub fn objective_gradient_index(&self) -> usize {
-        self.idx(self.n, slot::M)
+    /// ∇f into `g` (overwritten).
+    pub fn objective_gradient(&self, w: &[f64], g: &mut [f64]) {
+        g.iter_mut().for_each(|v| *v = 0.0);
+        g[self.idx(self.n, slot::M)] = -1.0;
+        self.for_each_soft_term(w, |j, (_, d1, _)| g[j] += d1);
     }
 
+    /// ∇²f (diagonal: the soft terms only) added to the node blocks.
+    pub fn add_objective_hessian(&self, w: &[f64], blocks: &mut [[[f64; NL]; NL]]) {
+        self.for_each_soft_term(w, |j, (_, _, d2)| {
+            let (k, s) = (j / NL, j % NL);
+            blocks[k][s][s] += d2;
+        });
+    }
+
+    /// Each soft term's variable index and (value, first, second derivative)
+    /// with respect to it, weight included.
+    fn for_each_soft_term(&self, w: &[f64], mut f: impl FnMut(usize, (f64, f64, f64))) {
+        let st = &self.soft;
+        if st.margin_weight > 0.0 {
+            for i in 0..self.n {
+                for s in [slot::ABOVE, slot::BELOW] {
+                    let j = self.idx(i, s);
+                    f(j, (st.margin_weight * w[j], st.margin_weight, 0.0));
+                }
+            }
+        }
+        if st.lateral_weight > 0.0 {
+            let a = st.lateral_weight;
+            for (s, target) in [
+                (slot::X, st.lateral_target.0),
+                (slot::VX, st.lateral_target.1),
+            ] {
+                let j = self.idx(self.n, s);
+                let (v, g, h) = smooth_abs(w[j] - target);
+                f(j, (a * v, a * g, a * h));
+            }
+        }
+    }
+
+    /// Physical values of node k's slots, with the thrust slot holding the
+    /// thrust itself, T + ABOVE − BELOW.
     fn physical_node(&self, w: &[f64], k: usize) -> [f64; NL] {
-        std::array::from_fn(|s| self.physical(s, w[self.idx(k, s)]))
+        let mut p: [f64; NL] = std::array::from_fn(|s| self.physical(s, w[self.idx(k, s)]));
+        p[slot::T] += p[slot::ABOVE] - p[slot::BELOW];
+        p
+    }
+
+    /// Thrust \[N\] at collocation point `i`: T + ABOVE − BELOW.
+    pub fn thrust_n(&self, w: &[f64], i: usize) -> f64 {
+        self.physical_node(w, i)[slot::T]
     }
 
     /// Scaled rates F = f/scale at collocation point `i`.
@@ -336,6 +460,25 @@ impl Nlp {
                         }
                     }
                 }
+            }
+        }
+        // The slacks enter as the thrust does, with signs e = (+1, −1): their
+        // columns are e·(T's column), and ∇² rows and columns likewise.
+        for (s, e) in [(slot::ABOVE, 1.0), (slot::BELOW, -1.0)] {
+            for c in 0..NS {
+                out.jac[c][s] = e * out.jac[c][slot::T];
+            }
+        }
+        let t_row = out.hess[slot::T];
+        for (s, e) in [(slot::ABOVE, 1.0), (slot::BELOW, -1.0)] {
+            for q in 0..NL {
+                let v = match q {
+                    slot::ABOVE => e * t_row[slot::T],
+                    slot::BELOW => -e * t_row[slot::T],
+                    _ => e * t_row[q],
+                };
+                out.hess[s][q] = v;
+                out.hess[q][s] = v;
             }
         }
         // The linear rates θ̇ = w and δ̇ = χ.
@@ -416,7 +559,16 @@ impl Nlp {
             w[self.idx(k, slot::M)] = self.scaled(slot::M, m);
             w[self.idx(k, slot::DELTA)] = self.scaled(slot::DELTA, x[ix::DELTA]);
             if k < self.n {
-                w[self.idx(k, slot::T)] = self.scaled(slot::T, t.u[k][0] * m);
+                let thrust = t.u[k][0] * m;
+                if self.soft.margin_weight > 0.0 {
+                    // Within the band, and the rest in the slacks.
+                    let (lo, hi) = self.soft.margin_band_n;
+                    w[self.idx(k, slot::T)] = self.scaled(slot::T, thrust.clamp(lo, hi));
+                    w[self.idx(k, slot::ABOVE)] = self.scaled(slot::ABOVE, (thrust - hi).max(0.0));
+                    w[self.idx(k, slot::BELOW)] = self.scaled(slot::BELOW, (lo - thrust).max(0.0));
+                } else {
+                    w[self.idx(k, slot::T)] = self.scaled(slot::T, thrust);
+                }
                 w[self.idx(k, slot::CHI)] = self.scaled(slot::CHI, t.u[k][1]);
             }
         }

@@ -15,11 +15,13 @@
 //! iterations ([`WARM_PROXIMAL_WEIGHT`]).
 
 use crate::conic::ConicSolver;
+use crate::direct;
 use crate::dynamics::{self, ix, NU_MAX, NX};
 use crate::error::InputError;
 use crate::mesh::Mesh;
+use crate::nlp::Nlp;
 use crate::propagate::{Interpolant, Interpolation};
-use crate::scenario::{Formulation, InitialState, Scenario};
+use crate::scenario::{Formulation, InitialState, Method, Scenario};
 use crate::scvx::{self, Observer};
 use crate::solution::Solution;
 use crate::transcription::{Trajectory, Transcription};
@@ -180,6 +182,11 @@ pub struct Planner {
     /// Proximal weight of a re-plan's subproblems, in place of the scenario's
     /// `solver.proximal_weight` (default [`WARM_PROXIMAL_WEIGHT`]).
     pub warm_proximal_weight: f64,
+    /// The method of the cold solve and the re-plans. Default SCvx, whose
+    /// re-plans the guidance defaults were tuned with.
+    pub method: Method,
+    /// Interior-point iteration budget of a direct re-plan (its deadline).
+    pub direct_max_iterations: usize,
     /// One conic solver per subproblem structure (relaxed, exact).
     conic_relaxed: ConicSolver,
     conic: ConicSolver,
@@ -193,16 +200,25 @@ impl Planner {
             plan: None,
             warm_relaxed_iterations: 0,
             warm_proximal_weight: WARM_PROXIMAL_WEIGHT,
+            method: Method::Scvx,
+            direct_max_iterations: DIRECT_REPLAN_ITERATIONS,
             conic_relaxed: ConicSolver::new(),
             conic: ConicSolver::new(),
         }
     }
 
-    /// Cold solve from the straight line ([`scvx::solve`]); a solved answer
-    /// becomes the plan.
+    /// Cold solve from the straight line with the planner's method; a
+    /// solved answer becomes the plan.
     pub fn cold(&mut self, observer: &mut dyn Observer) -> Solution {
-        let sol = scvx::solve(&self.scenario, observer);
+        let sol = self.cold_solve(&self.scenario.clone(), observer);
         self.adopt(sol)
+    }
+
+    fn cold_solve(&self, s: &Scenario, observer: &mut dyn Observer) -> Solution {
+        match self.method {
+            Method::Scvx => scvx::solve(s, observer),
+            Method::Direct => direct::solve(s, observer),
+        }
     }
 
     /// Make `sol` the plan if it is solved; the old plan stays otherwise.
@@ -239,9 +255,13 @@ impl Planner {
         );
         s.validate()?;
         let Some(plan) = &self.plan else {
-            let sol = scvx::solve(&s, observer);
+            let sol = self.cold_solve(&s, observer);
             return Ok(self.adopt(sol));
         };
+        if self.method == Method::Direct {
+            let sol = self.direct_replan(s, plan, elapsed_s, observer);
+            return Ok(self.adopt(sol));
+        }
         // Optionally the paper's relaxation first, kept only if it passes every
         // physical check; then the exact form from the same reference.
         // `s.solver.max_iterations` bounds both phases together.
@@ -288,6 +308,33 @@ impl Planner {
         Ok(self.adopt(sol))
     }
 }
+
+impl Planner {
+    /// A direct re-plan: the interior-point method from the shifted plan
+    /// (its states and controls on the new mesh, [`shifted_reference`]), at
+    /// μ_0 = [`direct::WARM_MU`], within [`Planner::direct_max_iterations`].
+    fn direct_replan(
+        &self,
+        mut s: Scenario,
+        plan: &Plan,
+        elapsed_s: f64,
+        observer: &mut dyn Observer,
+    ) -> Solution {
+        s.solver.formulation = Formulation::Exact;
+        s.solver.direct.mu_init = direct::WARM_MU;
+        s.solver.direct.max_iterations = self.direct_max_iterations;
+        let nlp = Nlp::new(&s);
+        let tr = Transcription::new(&s);
+        let guess = shifted_reference(plan, elapsed_s, &tr);
+        let w0 = nlp.from_trajectory(&guess);
+        direct::solve_from(&s, &nlp, &w0, None, observer)
+    }
+}
+
+/// Interior-point iterations of a direct re-plan by default: a cold solve
+/// at N = 10 takes about 25 from the straight line, so a warm one that has
+/// not converged in 40 is far from its plan.
+pub const DIRECT_REPLAN_ITERATIONS: usize = 40;
 
 /// Final-mass guess \[kg\] for a solve from mass `mass_kg`: that mass less the
 /// propellant `plan` still burns after `elapsed_s` (`fallback_kg` without a
