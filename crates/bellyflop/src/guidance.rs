@@ -1067,6 +1067,28 @@ mod tests {
         assert!((5000.0..6500.0).contains(&f.fuel_kg()), "{}", f.fuel_kg());
     }
 
+    /// Direct re-plans (the interior-point method, warm from the shifted
+    /// plan) land the nominal case too, and converge within their budget.
+    #[test]
+    fn nominal_closed_loop_with_direct_replans_lands_on_the_pad() {
+        let mut c = nominal();
+        c.guidance.replan_method = crate::Method::Direct;
+        let f = c.fly(&Scenario::paper(), 1, 0, false).unwrap();
+        let Outcome::Touchdown(td) = f.outcome else {
+            panic!("no touchdown: {:?}", f.outcome)
+        };
+        assert!(td.x_error_m.abs() < 1.0, "{td:?}");
+        assert!(td.speed_mps < 1.0, "{td:?}");
+        assert!(td.pitch_error_deg.abs() < 2.0, "{td:?}");
+        assert_eq!(f.first_plan.method, crate::Method::Direct);
+        assert!(f.replans.len() >= 15, "{:?}", f.replans);
+        // All but the last few (a re-plan on the final burn may miss).
+        let accepted = f.count(ReplanOutcome::Accepted);
+        assert!(accepted + 3 >= f.replans.len(), "{:?}", f.replans);
+        assert_eq!(f.count(ReplanOutcome::Failed), 0, "{:?}", f.replans);
+        assert!((5000.0..6500.0).contains(&f.fuel_kg()), "{}", f.fuel_kg());
+    }
+
     /// With `stop_at_final_burn` re-planning ends where the plan's thrust
     /// reaches the planning limit, about 6 s into the 11.6-s plan.
     #[test]

@@ -256,3 +256,36 @@ fn adaptive_barrier_rule_reaches_the_same_optimum() {
     let sol = direct_paper(|s| s.solver.direct.mu_strategy = direct::MuStrategy::Adaptive);
     assert_reference(&sol, 114_569.455, 11.56895, "adaptive μ");
 }
+
+/// The closed-loop plans' soft constraints (a 10 % thrust margin at weight
+/// 100, soft terminal x and Vx at weight 1000) give the direct method SCvx's
+/// optimum of the same program: the thrust stays within the engine, and on
+/// the margin's band wherever the margin is not worth its cost.
+#[test]
+fn soft_margin_and_terminal_reach_the_scvx_optimum() {
+    let soft = |s: &mut Scenario| {
+        s.solver.thrust_margin_frac = 0.1;
+        s.solver.thrust_margin_weight = 100.0;
+        s.solver.terminal_lateral_weight = 1000.0;
+    };
+    let d = direct_alone(soft);
+    let mut s = Scenario::paper();
+    soft(&mut s);
+    let c = bellyflop::scvx::solve(&s, &mut Silent);
+    assert_eq!(d.status, Status::Solved, "{}", d.message);
+    assert_eq!(c.status, Status::Solved, "{}", c.message);
+    assert!(
+        (d.final_mass_kg - c.final_mass_kg).abs() < 0.5,
+        "direct {} against SCvx {}",
+        d.final_mass_kg,
+        c.final_mass_kg
+    );
+    let hard = Scenario::paper();
+    assert!(d.final_mass_kg < direct_alone(|_| ()).final_mass_kg - 100.0);
+    let t_max = hard.vehicle.max_thrust_n;
+    let band = 0.9 * t_max;
+    let peak = d.thrust_n[..d.nodes].iter().fold(0.0f64, |a, &t| a.max(t));
+    assert!(peak <= t_max && peak > band - 1.0, "peak thrust {peak} N");
+    assert!(d.checks.thrust_bound_violation_n <= 0.0, "{:?}", d.checks);
+    assert!(d.x_m[d.nodes].abs() < 1e-3 && d.vx_mps[d.nodes].abs() < 1e-3);
+}
