@@ -474,8 +474,8 @@ impl KktSolver {
         }
         let mut a = kkt.h_tt;
         // P is not cleared: every factorization writes the same entries (the
-        // free slots and D's nonzeros do not change), and the others stay at
-        // the zeros of `new` (clearing it was 1.5 % of a solve at N = 20).
+        // free slots do not change), and the others stay at the zeros of
+        // `new` (clearing it was 1.5 % of a solve at N = 20).
         // Per node: P, g, a; the cross terms R_k and T_k are kept for later.
         for k in 0..=n {
             let sl = &self.slots[k];
@@ -487,17 +487,20 @@ impl KktSolver {
                 u[p] = (0..b).map(|q| m[p][q] * kkt.h_t[k][sl[q]]).sum();
                 a -= kkt.h_t[k][sl[p]] * u[p];
             }
-            let col = &nlp.d_cols[k];
+            // Column k of D, dense (zeros off an hp mesh's blocks), so that
+            // each write below is one contiguous, vectorizable run over i.
+            let d_col = &self.d[k * n..(k + 1) * n];
             for p in 0..b {
                 let Some(c) = state(p) else { continue };
-                for &(i, d) in col {
-                    g[sm(c, i)] -= d * u[p];
+                for (gi, d) in g[sm(c, 0)..sm(c, 0) + n].iter_mut().zip(d_col) {
+                    *gi -= d * u[p];
                 }
                 for q in 0..b {
                     let Some(c2) = state(q) else { continue };
-                    let base = (c2 * nn + k) * dim;
-                    for &(i, d) in col {
-                        self.p[base + sm(c, i)] = d * m[p][q];
+                    let base = (c2 * nn + k) * dim + sm(c, 0);
+                    let mpq = m[p][q];
+                    for (x, d) in self.p[base..base + n].iter_mut().zip(d_col) {
+                        *x = d * mpq;
                     }
                 }
             }
