@@ -93,7 +93,7 @@ fn kkt_solve(c: &mut Criterion) {
                 for k in 0..=nlp.n {
                     black_box(solver.factor_node(k, &kkt.w[k], 0.0));
                 }
-                black_box(solver.factor_reduced(&nlp, &kkt));
+                black_box(solver.factor_reduced(&kkt));
                 solver.solve(&nlp, &kkt, &rw, &rl, &mut xw, &mut xl);
                 black_box(xw[0])
             })

@@ -497,7 +497,7 @@ impl<'a> Driver<'a> {
         }
         self.ws.kkt.h_tt = h_tt + delta_w;
         self.ws.kkt.delta_c = delta_c;
-        inertia + self.ws.solver.factor_reduced(self.nlp, &self.ws.kkt)
+        inertia + self.ws.solver.factor_reduced(&self.ws.kkt)
     }
 
     /// Whether an inertia is that of a descent direction: n positive, m negative.

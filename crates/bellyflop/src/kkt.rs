@@ -460,7 +460,7 @@ impl KktSolver {
     /// S^{cc2} = D·diag(Q_k(c, c2))·Dᵀ, is eight dense products P_{c2}·Dᵀ
     /// (faer's SIMD matmul) instead of a scattered 64·N³ loop, which took
     /// 56 % of a solve at N = 40 (perf).
-    pub fn factor_reduced(&mut self, nlp: &Nlp, kkt: &KktMatrix) -> Inertia {
+    pub fn factor_reduced(&mut self, kkt: &KktMatrix) -> Inertia {
         let n = self.n;
         let dim = self.dim();
         let rd = dim + 1;
@@ -740,7 +740,7 @@ mod tests {
             for k in 0..=nlp.n {
                 inertia = inertia + solver.factor_node(k, &kkt.w[k], 0.0);
             }
-            inertia = inertia + solver.factor_reduced(&nlp, &kkt);
+            inertia = inertia + solver.factor_reduced(&kkt);
             let (nv, nc) = (nlp.n_var(), nlp.n_con());
             // Dense K over the free variables and the multipliers, column by column.
             let free: Vec<usize> = (0..nv).filter(|&j| !nlp.is_fixed(j)).collect();
