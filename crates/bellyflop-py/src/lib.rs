@@ -463,9 +463,7 @@ impl Flight {
     fn __repr__(&self) -> String {
         format!(
             "<bellyflop.Flight {}, fuel {} kg>",
-            self.value["flight"]["outcome_name"]
-                .as_str()
-                .unwrap_or("?"),
+            self.value["flight"]["outcome_name"].as_str().unwrap_or("?"),
             self.value["flight"]["fuel_kg"]
         )
     }
