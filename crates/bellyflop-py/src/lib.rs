@@ -756,6 +756,13 @@ impl CampaignTable {
     }
 }
 
+/// Panic inside Rust, as a bug would: the tests check that it arrives as
+/// `InternalError` and the interpreter carries on.
+#[pyfunction]
+fn _panic_for_tests(py: Python<'_>) -> PyResult<()> {
+    detached(py, || panic!("a test asked for a panic"))
+}
+
 /// The column names of runs.csv, in order.
 #[pyfunction]
 fn runs_csv_columns() -> Vec<&'static str> {
@@ -778,5 +785,6 @@ fn _bellyflop(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(campaign_chunk, m)?)?;
     m.add_function(wrap_pyfunction!(campaign_table, m)?)?;
     m.add_function(wrap_pyfunction!(runs_csv_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(_panic_for_tests, m)?)?;
     Ok(())
 }

@@ -208,3 +208,9 @@ def test_solve_releases_the_gil():
     core_s = box["sol"]._core_ms / 1e3
     assert core_s > 0.02, core_s
     assert gap < 0.5 * core_s, (gap, core_s)
+
+
+def test_a_panic_is_an_exception():
+    with pytest.raises(bellyflop.InternalError, match="a test asked for a panic"):
+        bellyflop._bellyflop._panic_for_tests()
+    assert bellyflop.solve().status == "solved"
