@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use bellyflop::guidance::{end_state, Flight, ReplanOutcome, SimConfig};
 use bellyflop::sim::{Dispersions, Outcome, RunOutcome};
 use bellyflop::Scenario;
-use serde_json::{json, Value};
+use serde_json::Value;
 
 use crate::output::{self, OutputError};
 use crate::sample::Dense;
@@ -179,32 +179,7 @@ fn print_summary(f: &Flight, outcome: RunOutcome, seed: u64, run: u64) {
     }
 }
 
-/// The flight as one JSON object.
-pub fn flight_json(
-    f: &Flight,
-    outcome: RunOutcome,
-    seed: u64,
-    run: u64,
-    config: &SimConfig,
-) -> Value {
-    json!({
-        "seed": seed,
-        "run": run,
-        "outcome": f.outcome,
-        "outcome_name": outcome,
-        "fuel_kg": f.fuel_kg(),
-        "first_plan": {
-            "status": f.first_plan.status.as_str(),
-            "nominal": f.first_plan_nominal,
-            "tf_s": f.first_plan.tf_s,
-            "final_mass_kg": f.first_plan.final_mass_kg,
-            "iterations": f.first_plan.iterations,
-        },
-        "replans": f.replans,
-        "saturation": f.saturation,
-        "config": config,
-    })
-}
+pub use bellyflop::report::flight_json;
 
 /// The flown trajectory in the columns of `trajectory.csv`.
 fn flown(f: &Flight) -> Dense {
@@ -237,26 +212,7 @@ fn write(
     let plan_json = f.first_plan.to_json();
     let mut files = output::write_all(dir, scenario, &f.first_plan, &plan_json, Some(&flown))?;
 
-    let mut csv = String::from("t_s,x_m,z_m,vx_mps,vz_mps,theta_rad,pitch_rate_radps,mass_kg,delta_rad,thrust_cmd_n,gimbal_rate_cmd_radps,wind_mps\n");
-    for s in &f.trace {
-        let p = &s.state;
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{},{},{},{},{},{},{},{}",
-            s.t_s,
-            p.x_m,
-            p.z_m,
-            p.vx_mps,
-            p.vz_mps,
-            p.theta_rad,
-            p.pitch_rate_radps,
-            p.mass_kg,
-            p.gimbal_rad,
-            s.thrust_cmd_n,
-            s.gimbal_rate_cmd_radps,
-            s.wind_mps
-        );
-    }
+    let csv = bellyflop::report::trace_csv(f);
     let path = dir.join("flight.csv");
     std::fs::write(&path, csv).map_err(|e| OutputError::io(&path, e))?;
     files.push(path);

@@ -16,8 +16,11 @@
 //!   its tolerances;
 //! - [`sim`]: the truth plant and Monte-Carlo dispersions for closed-loop guidance;
 //! - [`navigation`]: filters on the measured state (position, wind);
-//! - [`guidance`]: the closed loop — navigation, re-planning, control.
+//! - [`guidance`]: the closed loop — navigation, re-planning, control;
+//! - [`report`]: the JSON of a solve with its landing precision (the CLI's `--json`);
+//! - [`campaign`]: Monte Carlo rows (runs.csv) and summary.
 pub mod accuracy;
+pub mod campaign;
 pub mod conic;
 pub mod direct;
 pub mod dynamics;
@@ -31,6 +34,7 @@ pub mod nlp;
 pub mod propagate;
 pub mod radau;
 pub mod replan;
+pub mod report;
 pub mod scenario;
 pub mod scvx;
 pub mod sim;

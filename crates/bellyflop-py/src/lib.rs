@@ -1,0 +1,790 @@
+//! `bellyflop._bellyflop`: the native half of the Python package.
+//!
+//! Thin: every result is built by the core crate's own serialization
+//! (`bellyflop::report`, `bellyflop::campaign`), the same code the CLI
+//! prints with, and converted to Python objects here. Long calls release the
+//! GIL; a panic in the core becomes `bellyflop.InternalError`.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::time::Instant;
+
+use bellyflop::campaign::{self, RunRow};
+use bellyflop::guidance::SimConfig as CoreSimConfig;
+use bellyflop::propagate::Interpolation;
+use bellyflop::sim::RunOutcome;
+use bellyflop::{report, Formulation, Method, Scenario as CoreScenario};
+use numpy::PyArray1;
+use pyo3::create_exception;
+use pyo3::exceptions::{PyAttributeError, PyKeyError, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList, PyTuple};
+use pyo3::IntoPyObjectExt;
+use serde_json::Value;
+
+mod convert;
+
+use convert::{json_to_py, py_to_toml};
+
+create_exception!(
+    _bellyflop,
+    InputError,
+    PyValueError,
+    "Input that cannot describe a landing problem: the message names the field, its value and the allowed range (or the TOML line)."
+);
+create_exception!(
+    _bellyflop,
+    InternalError,
+    PyRuntimeError,
+    "A bug in bellyflop (a Rust panic, caught before it reached the interpreter)."
+);
+
+/// The core crate's typed input error as `InputError`.
+fn input_error(e: bellyflop::InputError) -> PyErr {
+    InputError::new_err(e.to_string())
+}
+
+/// Run `f` with the GIL released; a panic becomes `InternalError`.
+fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
+    py.detach(|| catch_unwind(AssertUnwindSafe(f)))
+        .map_err(|payload| {
+            let msg = payload
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "unknown panic".to_string());
+            InternalError::new_err(format!("bellyflop panicked: {msg}"))
+        })
+}
+
+/// The attribute `name` of a JSON object, as Python (a nested object as a
+/// read-only [`Section`]).
+fn attribute(py: Python<'_>, obj: &Value, path: &str, name: &str) -> PyResult<Py<PyAny>> {
+    match obj.get(name) {
+        Some(Value::Object(_)) => Section {
+            path: join(path, name),
+            value: obj[name].clone(),
+        }
+        .into_py_any(py),
+        Some(v) => Ok(json_to_py(py, v, false)?.unbind()),
+        None => Err(PyAttributeError::new_err(format!(
+            "{} has no field {name:?}",
+            if path.is_empty() { "scenario" } else { path }
+        ))),
+    }
+}
+
+fn join(path: &str, name: &str) -> String {
+    if path.is_empty() {
+        name.to_string()
+    } else {
+        format!("{path}.{name}")
+    }
+}
+
+fn keys(v: &Value) -> Vec<String> {
+    v.as_object()
+        .map(|m| m.keys().cloned().collect())
+        .unwrap_or_default()
+}
+
+/// A TOML argument: text when a str holds a newline or `=` (a path holds
+/// neither), else a path (str or os.PathLike).
+enum TomlSource {
+    Text(String),
+    File(std::path::PathBuf),
+}
+
+fn toml_source(arg: &Bound<'_, PyAny>) -> PyResult<TomlSource> {
+    if let Ok(s) = arg.extract::<String>() {
+        if s.contains('\n') || s.contains('=') {
+            return Ok(TomlSource::Text(s));
+        }
+        return Ok(TomlSource::File(s.into()));
+    }
+    Ok(TomlSource::File(arg.extract()?))
+}
+
+/// A read-only view of one table of a scenario or configuration
+/// (`scenario.initial`, `scenario.solver.direct`): fields as attributes or
+/// items.
+#[pyclass(module = "bellyflop._bellyflop", frozen)]
+struct Section {
+    path: String,
+    value: Value,
+}
+
+#[pymethods]
+impl Section {
+    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+        attribute(py, &self.value, &self.path, name)
+    }
+
+    fn __getitem__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+        attribute(py, &self.value, &self.path, name)
+            .map_err(|_| PyKeyError::new_err(name.to_string()))
+    }
+
+    fn __dir__(&self) -> Vec<String> {
+        keys(&self.value)
+    }
+
+    /// The field names.
+    fn keys(&self) -> Vec<String> {
+        keys(&self.value)
+    }
+
+    /// The table as nested dicts.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.value, false)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("<bellyflop section {} {}>", self.path, self.value)
+    }
+}
+
+/// A landing problem: vehicle, environment, boundary states, mesh and
+/// solver settings, validated on construction.
+#[pyclass(module = "bellyflop._bellyflop", frozen)]
+#[derive(Clone)]
+pub struct Scenario {
+    inner: CoreScenario,
+}
+
+#[pymethods]
+impl Scenario {
+    /// The paper's case (`scenarios/paper.toml`).
+    #[staticmethod]
+    fn paper() -> Self {
+        Scenario {
+            inner: CoreScenario::paper(),
+        }
+    }
+
+    /// Parse and validate TOML: text (a str with a newline or `=`) or a
+    /// file path (str or os.PathLike).
+    #[staticmethod]
+    fn from_toml(path_or_text: &Bound<'_, PyAny>) -> PyResult<Self> {
+        match toml_source(path_or_text)? {
+            TomlSource::Text(t) => Self::from_toml_text(&t),
+            TomlSource::File(p) => Self::from_toml_file(p),
+        }
+    }
+
+    /// Parse and validate TOML text.
+    #[staticmethod]
+    fn from_toml_text(text: &str) -> PyResult<Self> {
+        CoreScenario::from_toml_str(text)
+            .map(|inner| Scenario { inner })
+            .map_err(input_error)
+    }
+
+    /// Read, parse and validate a TOML file.
+    #[staticmethod]
+    fn from_toml_file(path: std::path::PathBuf) -> PyResult<Self> {
+        CoreScenario::from_file(&path)
+            .map(|inner| Scenario { inner })
+            .map_err(input_error)
+    }
+
+    /// Build and validate from nested dicts with the TOML's tables and keys.
+    #[staticmethod]
+    fn from_dict(d: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let value = py_to_toml(d, "")?;
+        let inner: CoreScenario = value
+            .try_into()
+            .map_err(|e: toml::de::Error| InputError::new_err(format!("scenario dict: {e}")))?;
+        inner.validate().map_err(input_error)?;
+        Ok(Scenario { inner })
+    }
+
+    /// The scenario as TOML text (reads back to an equal scenario).
+    fn to_toml(&self) -> PyResult<String> {
+        toml::to_string(&self.inner).map_err(|e| InternalError::new_err(e.to_string()))
+    }
+
+    /// The scenario as nested dicts (the TOML's tables and keys).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.json()?, false)
+    }
+
+    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+        attribute(py, &self.json()?, "", name)
+    }
+
+    fn __dir__(&self) -> PyResult<Vec<String>> {
+        Ok(keys(&self.json()?))
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<Scenario>()
+            .map(|o| o.get().inner == self.inner)
+            .unwrap_or(false)
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let ctor = py.get_type::<Scenario>().getattr("from_toml_text")?;
+        Ok((ctor, (self.to_toml()?,)))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<bellyflop.Scenario {:?}, N = {}, {}>",
+            self.inner.name,
+            self.inner.discretization.nodes,
+            self.inner.solver.method.as_str()
+        )
+    }
+}
+
+impl Scenario {
+    fn json(&self) -> PyResult<Value> {
+        serde_json::to_value(&self.inner).map_err(|e| InternalError::new_err(e.to_string()))
+    }
+}
+
+/// The closed-loop configuration: `[dispersions]`, `[guidance]`, `[plant]`,
+/// `[touchdown]`, every field optional.
+#[pyclass(module = "bellyflop._bellyflop", frozen)]
+#[derive(Clone)]
+pub struct SimConfig {
+    inner: CoreSimConfig,
+}
+
+#[pymethods]
+impl SimConfig {
+    /// Every field at its default.
+    #[new]
+    fn new() -> Self {
+        SimConfig {
+            inner: CoreSimConfig::default(),
+        }
+    }
+
+    /// Parse and validate TOML: text (a str with a newline or `=`) or a
+    /// file path (str or os.PathLike).
+    #[staticmethod]
+    fn from_toml(path_or_text: &Bound<'_, PyAny>) -> PyResult<Self> {
+        match toml_source(path_or_text)? {
+            TomlSource::Text(t) => Self::from_toml_text(&t),
+            TomlSource::File(p) => Self::from_toml_file(p),
+        }
+    }
+
+    #[staticmethod]
+    fn from_toml_text(text: &str) -> PyResult<Self> {
+        CoreSimConfig::from_toml_str(text)
+            .map(|inner| SimConfig { inner })
+            .map_err(input_error)
+    }
+
+    #[staticmethod]
+    fn from_toml_file(path: std::path::PathBuf) -> PyResult<Self> {
+        CoreSimConfig::from_file(&path)
+            .map(|inner| SimConfig { inner })
+            .map_err(input_error)
+    }
+
+    #[staticmethod]
+    fn from_dict(d: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let value = py_to_toml(d, "")?;
+        let inner: CoreSimConfig = value
+            .try_into()
+            .map_err(|e: toml::de::Error| InputError::new_err(format!("config dict: {e}")))?;
+        inner.validate().map_err(input_error)?;
+        Ok(SimConfig { inner })
+    }
+
+    fn to_toml(&self) -> PyResult<String> {
+        toml::to_string(&self.inner).map_err(|e| InternalError::new_err(e.to_string()))
+    }
+
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.json()?, false)
+    }
+
+    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+        attribute(py, &self.json()?, "", name)
+    }
+
+    fn __dir__(&self) -> PyResult<Vec<String>> {
+        Ok(keys(&self.json()?))
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<SimConfig>()
+            .map(|o| o.get().inner == self.inner)
+            .unwrap_or(false)
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let ctor = py.get_type::<SimConfig>().getattr("from_toml_text")?;
+        Ok((ctor, (self.to_toml()?,)))
+    }
+
+    fn __repr__(&self) -> String {
+        "<bellyflop.SimConfig>".to_string()
+    }
+}
+
+impl SimConfig {
+    fn json(&self) -> PyResult<Value> {
+        serde_json::to_value(&self.inner).map_err(|e| InternalError::new_err(e.to_string()))
+    }
+}
+
+/// The answer of one solve: the object `bellyflop solve --json` prints.
+/// Every key is an attribute; node arrays are numpy float64 arrays.
+#[pyclass(module = "bellyflop._bellyflop", frozen)]
+pub struct Solution {
+    value: Value,
+    /// Time spent in Rust for this call (solve, re-propagation, JSON) \[ms\].
+    core_ms: f64,
+}
+
+#[pymethods]
+impl Solution {
+    /// Rebuild from the JSON text of `to_json()` (pickling).
+    #[staticmethod]
+    fn _from_json(text: &str) -> PyResult<Self> {
+        let value = serde_json::from_str(text).map_err(|e| InputError::new_err(e.to_string()))?;
+        Ok(Solution {
+            value,
+            core_ms: f64::NAN,
+        })
+    }
+
+    /// The JSON text, as `bellyflop solve --json` prints it.
+    fn to_json(&self) -> String {
+        self.value.to_string()
+    }
+
+    /// The `--json` object as nested dicts and lists (arrays as lists of float).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.value, false)
+    }
+
+    /// Milliseconds spent in Rust by the call that made this solution
+    /// (solve, re-propagation and serialization; NaN after unpickling).
+    #[getter]
+    fn _core_ms(&self) -> f64 {
+        self.core_ms
+    }
+
+    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+        match self.value.get(name) {
+            Some(v) => Ok(json_to_py(py, v, true)?.unbind()),
+            // Serialized only when not empty.
+            None if name == "direct_history" => Ok(PyList::empty(py).into_any().unbind()),
+            None => Err(PyAttributeError::new_err(format!(
+                "Solution has no field {name:?}"
+            ))),
+        }
+    }
+
+    fn __dir__(&self) -> Vec<String> {
+        keys(&self.value)
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let ctor = py.get_type::<Solution>().getattr("_from_json")?;
+        Ok((ctor, (self.to_json(),)))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<bellyflop.Solution {}, t_f {} s, final mass {} kg>",
+            self.value["status"].as_str().unwrap_or("?"),
+            self.value["tf_s"],
+            self.value["final_mass_kg"]
+        )
+    }
+}
+
+/// One closed-loop landing: the object `bellyflop sim --json` prints, the
+/// flown trace (the columns of flight.csv) and the run's runs.csv row.
+#[pyclass(module = "bellyflop._bellyflop", frozen)]
+pub struct Flight {
+    /// {"flight": sim --json object, "trace": {column: [..]}, "row": {..}}
+    value: Value,
+}
+
+#[pymethods]
+impl Flight {
+    #[staticmethod]
+    fn _from_json(text: &str) -> PyResult<Self> {
+        let value = serde_json::from_str(text).map_err(|e| InputError::new_err(e.to_string()))?;
+        Ok(Flight { value })
+    }
+
+    fn _to_json(&self) -> String {
+        self.value.to_string()
+    }
+
+    /// The `sim --json` object as nested dicts and lists.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.value["flight"], false)
+    }
+
+    /// The flown trace: flight.csv's columns as numpy float64 arrays.
+    #[getter]
+    fn trace<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.value["trace"], true)
+    }
+
+    /// This run's row of runs.csv as a dict.
+    #[getter]
+    fn row<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.value["row"], false)
+    }
+
+    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+        match self.value["flight"].get(name) {
+            Some(v) => Ok(json_to_py(py, v, true)?.unbind()),
+            None => Err(PyAttributeError::new_err(format!(
+                "Flight has no field {name:?}"
+            ))),
+        }
+    }
+
+    fn __dir__(&self) -> Vec<String> {
+        let mut k = keys(&self.value["flight"]);
+        k.extend(["trace".to_string(), "row".to_string()]);
+        k
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let ctor = py.get_type::<Flight>().getattr("_from_json")?;
+        Ok((ctor, (self._to_json(),)))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<bellyflop.Flight {}, fuel {} kg>",
+            self.value["flight"]["outcome_name"].as_str().unwrap_or("?"),
+            self.value["flight"]["fuel_kg"]
+        )
+    }
+}
+
+fn parse_method(s: &str) -> PyResult<Method> {
+    match s {
+        "direct" => Ok(Method::Direct),
+        "scvx" => Ok(Method::Scvx),
+        _ => Err(InputError::new_err(format!(
+            "method = {s:?} is not a method: allowed \"direct\" or \"scvx\""
+        ))),
+    }
+}
+
+fn parse_formulation(s: &str) -> PyResult<Formulation> {
+    match s {
+        "exact" => Ok(Formulation::Exact),
+        "paper" => Ok(Formulation::Paper),
+        "vector" => Ok(Formulation::Vector),
+        _ => Err(InputError::new_err(format!(
+            "formulation = {s:?} is not a formulation: allowed \"exact\", \"paper\" or \"vector\""
+        ))),
+    }
+}
+
+fn parse_interpolation(s: &str) -> PyResult<Interpolation> {
+    match s {
+        "pchip" => Ok(Interpolation::Pchip),
+        "linear" => Ok(Interpolation::Linear),
+        _ => Err(InputError::new_err(format!(
+            "interpolation = {s:?} is not an interpolation: allowed \"pchip\" or \"linear\""
+        ))),
+    }
+}
+
+/// Solve `scenario` with the overrides of `bellyflop solve` and return the
+/// `--json` object as a Solution.
+#[pyfunction]
+#[pyo3(signature = (scenario, nodes=None, intervals=None, method=None, formulation=None, interpolation="pchip"))]
+fn solve(
+    py: Python<'_>,
+    scenario: &Scenario,
+    nodes: Option<usize>,
+    intervals: Option<usize>,
+    method: Option<&str>,
+    formulation: Option<&str>,
+    interpolation: &str,
+) -> PyResult<Solution> {
+    let mut s = scenario.inner.clone();
+    if let Some(n) = nodes {
+        s.discretization.nodes = n;
+    }
+    if let Some(m) = intervals {
+        s.discretization.intervals = m;
+    }
+    if let Some(f) = formulation {
+        s.solver.formulation = parse_formulation(f)?;
+    }
+    if let Some(m) = method {
+        s.solver.method = parse_method(m)?;
+    }
+    let interpolation = parse_interpolation(interpolation)?;
+    s.validate().map_err(input_error)?;
+    let (value, core_ms) = detached(py, move || {
+        let start = Instant::now();
+        let solution = bellyflop::solve(&s, &mut bellyflop::scvx::Silent);
+        let propagation = report::propagate(&s, &solution, interpolation);
+        let v = report::solve_json(&solution, &propagation);
+        (v, start.elapsed().as_secs_f64() * 1e3)
+    })?;
+    Ok(Solution { value, core_ms })
+}
+
+/// Fly run `run` of campaign `seed` (as `bellyflop sim --seed S --run K`).
+#[pyfunction]
+#[pyo3(signature = (scenario, config, seed=0, run=0))]
+fn sim(
+    py: Python<'_>,
+    scenario: &Scenario,
+    config: &SimConfig,
+    seed: u64,
+    run: u64,
+) -> PyResult<Flight> {
+    let s = scenario.inner.clone();
+    let c = config.inner.clone();
+    let value = detached(py, move || -> Result<Value, bellyflop::InputError> {
+        let f = c.fly(&s, seed, run, true)?;
+        let outcome = c.outcome(&f);
+        let flight = report::flight_json(&f, outcome, seed, run, &c);
+        let trace: serde_json::Map<String, Value> = report::TRACE_COLUMNS
+            .iter()
+            .zip(report::trace_columns(&f))
+            .map(|(name, col)| (name.to_string(), floats(&col)))
+            .collect();
+        let row = serde_json::to_value(RunRow::new(run, &f, &c.touchdown)).unwrap_or_default();
+        Ok(serde_json::json!({"flight": flight, "trace": trace, "row": row}))
+    })?
+    .map_err(input_error)?;
+    Ok(Flight { value })
+}
+
+/// A float array as JSON (non-finite values as null, as serde_json writes them).
+fn floats(v: &[f64]) -> Value {
+    Value::Array(
+        v.iter()
+            .map(|&x| serde_json::Number::from_f64(x).map_or(Value::Null, Value::Number))
+            .collect(),
+    )
+}
+
+/// Fly runs `start..stop` of campaign `seed` on `threads` threads (0: one
+/// per core) and return one tuple per run, in run order, for
+/// [`campaign_table`]. Plain tuples pickle, so a chunk can come back from
+/// any executor's worker.
+#[pyfunction]
+#[pyo3(signature = (scenario, config, seed, start, stop, threads=1))]
+fn campaign_chunk<'py>(
+    py: Python<'py>,
+    scenario: &Scenario,
+    config: &SimConfig,
+    seed: u64,
+    start: u64,
+    stop: u64,
+    threads: usize,
+) -> PyResult<Bound<'py, PyList>> {
+    let s = scenario.inner.clone();
+    let c = config.inner.clone();
+    let rows = detached(py, move || -> Result<Vec<RunRow>, String> {
+        use rayon::prelude::*;
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| e.to_string())?;
+        pool.install(|| {
+            (start..stop)
+                .into_par_iter()
+                .map(|k| campaign::fly_row(&s, &c, seed, k))
+                .collect::<Result<Vec<RunRow>, bellyflop::InputError>>()
+        })
+        .map_err(|e| e.to_string())
+    })?
+    .map_err(InputError::new_err)?;
+    let tuples = rows
+        .iter()
+        .map(|r| row_to_py(py, r))
+        .collect::<PyResult<Vec<_>>>()?;
+    PyList::new(py, tuples)
+}
+
+fn row_to_py<'py>(py: Python<'py>, r: &RunRow) -> PyResult<Bound<'py, PyTuple>> {
+    let items: Vec<Bound<'py, PyAny>> = vec![
+        r.run.into_bound_py_any(py)?,
+        r.outcome.as_str().into_bound_py_any(py)?,
+        r.time_s.into_bound_py_any(py)?,
+        r.x_error_m.into_bound_py_any(py)?,
+        r.vertical_velocity_mps.into_bound_py_any(py)?,
+        r.horizontal_velocity_mps.into_bound_py_any(py)?,
+        r.speed_mps.into_bound_py_any(py)?,
+        r.pitch_error_deg.into_bound_py_any(py)?,
+        r.pitch_rate_degps.into_bound_py_any(py)?,
+        r.fuel_kg.into_bound_py_any(py)?,
+        r.replans.into_bound_py_any(py)?,
+        r.failed_replans.into_bound_py_any(py)?,
+        r.missed_replans.into_bound_py_any(py)?,
+        r.usable_replans.into_bound_py_any(py)?,
+        r.late_replans.into_bound_py_any(py)?,
+        r.max_replan_ms.into_bound_py_any(py)?,
+        r.first_plan_nominal.into_bound_py_any(py)?,
+        r.replan_ms.clone().into_bound_py_any(py)?,
+    ];
+    PyTuple::new(py, items)
+}
+
+fn row_from_py(t: &Bound<'_, PyAny>, config: &CoreSimConfig) -> PyResult<RunRow> {
+    let g = |i: usize| t.get_item(i);
+    let f = |i: usize| -> PyResult<f64> { g(i)?.extract() };
+    let u = |i: usize| -> PyResult<usize> { g(i)?.extract() };
+    let name: String = g(1)?.extract()?;
+    let outcome = RunOutcome::ALL
+        .into_iter()
+        .find(|o| o.as_str() == name)
+        .ok_or_else(|| InputError::new_err(format!("outcome {name:?} is not an outcome")))?;
+    Ok(RunRow {
+        run: g(0)?.extract()?,
+        outcome,
+        time_s: f(2)?,
+        x_error_m: f(3)?,
+        vertical_velocity_mps: f(4)?,
+        horizontal_velocity_mps: f(5)?,
+        speed_mps: f(6)?,
+        pitch_error_deg: f(7)?,
+        pitch_rate_degps: f(8)?,
+        fuel_kg: f(9)?,
+        replans: u(10)?,
+        failed_replans: u(11)?,
+        missed_replans: u(12)?,
+        usable_replans: u(13)?,
+        late_replans: u(14)?,
+        max_replan_ms: f(15)?,
+        first_plan_nominal: g(16)?.extract()?,
+        replan_ms: g(17)?.extract()?,
+        limits: config.touchdown,
+    })
+}
+
+/// The table of a campaign: runs.csv's columns, its text and the summary.
+#[pyclass(module = "bellyflop._bellyflop", frozen)]
+pub struct CampaignTable {
+    rows: Vec<RunRow>,
+    summary: Value,
+}
+
+/// Assemble the rows of every chunk (in any order) into a CampaignTable
+/// sorted by run, with the CLI's summary.
+#[pyfunction]
+#[pyo3(signature = (rows, config, seed, threads, wall_s))]
+fn campaign_table(
+    rows: &Bound<'_, PyAny>,
+    config: &SimConfig,
+    seed: u64,
+    threads: usize,
+    wall_s: f64,
+) -> PyResult<CampaignTable> {
+    let mut out = Vec::new();
+    for t in rows.try_iter()? {
+        out.push(row_from_py(&t?, &config.inner)?);
+    }
+    out.sort_by_key(|r| r.run);
+    let open_loop = !config.inner.guidance.replan;
+    let summary = campaign::summary(
+        &out,
+        &config.inner.touchdown,
+        seed,
+        threads,
+        wall_s,
+        open_loop,
+    );
+    Ok(CampaignTable { rows: out, summary })
+}
+
+#[pymethods]
+impl CampaignTable {
+    /// The summary (`bellyflop montecarlo --json`).
+    #[getter]
+    fn summary<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.summary, false)
+    }
+
+    /// The text of runs.csv, as `bellyflop montecarlo --out` writes it.
+    fn runs_csv(&self) -> String {
+        campaign::runs_csv(&self.rows)
+    }
+
+    /// runs.csv's columns: numbers as numpy arrays (float64, int64, bool),
+    /// `outcome` as a list of str.
+    fn columns<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        let r = &self.rows;
+        let fl = |g: fn(&RunRow) -> f64| PyArray1::from_vec(py, r.iter().map(g).collect());
+        let int = |g: fn(&RunRow) -> i64| PyArray1::from_vec(py, r.iter().map(g).collect());
+        d.set_item("run", int(|r| r.run as i64))?;
+        d.set_item(
+            "outcome",
+            r.iter().map(|r| r.outcome.as_str()).collect::<Vec<_>>(),
+        )?;
+        d.set_item("time_s", fl(|r| r.time_s))?;
+        d.set_item("x_error_m", fl(|r| r.x_error_m))?;
+        d.set_item("vertical_velocity_mps", fl(|r| r.vertical_velocity_mps))?;
+        d.set_item("horizontal_velocity_mps", fl(|r| r.horizontal_velocity_mps))?;
+        d.set_item("speed_mps", fl(|r| r.speed_mps))?;
+        d.set_item("pitch_error_deg", fl(|r| r.pitch_error_deg))?;
+        d.set_item("pitch_rate_degps", fl(|r| r.pitch_rate_degps))?;
+        d.set_item("fuel_kg", fl(|r| r.fuel_kg))?;
+        d.set_item("replans", int(|r| r.replans as i64))?;
+        d.set_item("failed_replans", int(|r| r.failed_replans as i64))?;
+        d.set_item("missed_replans", int(|r| r.missed_replans as i64))?;
+        d.set_item("usable_replans", int(|r| r.usable_replans as i64))?;
+        d.set_item("late_replans", int(|r| r.late_replans as i64))?;
+        d.set_item("max_replan_ms", fl(|r| r.max_replan_ms))?;
+        d.set_item(
+            "first_plan_nominal",
+            PyArray1::from_vec(py, r.iter().map(|r| r.first_plan_nominal).collect()),
+        )?;
+        Ok(d)
+    }
+
+    fn __len__(&self) -> usize {
+        self.rows.len()
+    }
+}
+
+/// Panic inside Rust, as a bug would: the tests check that it arrives as
+/// `InternalError` and the interpreter carries on.
+#[pyfunction]
+fn _panic_for_tests(py: Python<'_>) -> PyResult<()> {
+    detached(py, || panic!("a test asked for a panic"))
+}
+
+/// The column names of runs.csv, in order.
+#[pyfunction]
+fn runs_csv_columns() -> Vec<&'static str> {
+    campaign::RUNS_CSV_COLUMNS.to_vec()
+}
+
+#[pymodule]
+fn _bellyflop(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("InputError", py.get_type::<InputError>())?;
+    m.add("InternalError", py.get_type::<InternalError>())?;
+    m.add_class::<Section>()?;
+    m.add_class::<Scenario>()?;
+    m.add_class::<SimConfig>()?;
+    m.add_class::<Solution>()?;
+    m.add_class::<Flight>()?;
+    m.add_class::<CampaignTable>()?;
+    m.add_function(wrap_pyfunction!(solve, m)?)?;
+    m.add_function(wrap_pyfunction!(sim, m)?)?;
+    m.add_function(wrap_pyfunction!(campaign_chunk, m)?)?;
+    m.add_function(wrap_pyfunction!(campaign_table, m)?)?;
+    m.add_function(wrap_pyfunction!(runs_csv_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(_panic_for_tests, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,151 @@
+//! The JSON object of one solve, as `bellyflop solve --json` prints it and
+//! the Python package's `Solution.to_dict()` returns it: the solution's own
+//! fields plus its landing precision (`landing_error`, `propagation`).
+
+use serde_json::{json, Value};
+
+use crate::guidance::{Flight, SimConfig};
+use crate::propagate::{self, IntegrationError, Interpolation, Options, Propagation};
+use crate::sim::RunOutcome;
+use crate::{Scenario, Solution};
+
+/// Re-propagate `solution` with the default integrator and nozzle model and
+/// the given control interpolation.
+pub fn propagate(
+    scenario: &Scenario,
+    solution: &Solution,
+    interpolation: Interpolation,
+) -> Result<Propagation, IntegrationError> {
+    let options = Options {
+        interpolation,
+        ..Options::default()
+    };
+    propagate::propagate(scenario, solution, &options)
+}
+
+/// `landing_error` ({position_m, velocity_mps, pitch_rad, rate_radps}, or null
+/// when the propagation failed).
+pub fn landing_error_json(p: &Result<Propagation, IntegrationError>) -> Value {
+    match p {
+        Ok(p) => serde_json::to_value(p.landing_error).unwrap_or(Value::Null),
+        Err(_) => Value::Null,
+    }
+}
+
+/// `propagation`: how the landing error was measured, the terminal mass, the
+/// propagated final state, or the reason it failed.
+pub fn propagation_json(p: &Result<Propagation, IntegrationError>) -> Value {
+    match p {
+        Ok(p) => {
+            let [x, z, vx, vz, theta, w, m] = p.final_state();
+            json!({
+                "integrator": "dop853",
+                "rtol": p.options.integrator.rtol,
+                "atol": p.options.integrator.atol,
+                "interpolation": p.options.interpolation,
+                "nozzle": p.options.nozzle,
+                "terminal_mass_kg": p.terminal_mass_kg,
+                "mass_error_kg": p.mass_error_kg,
+                "final_state": {
+                    "x_m": x, "z_m": z, "vx_mps": vx, "vz_mps": vz,
+                    "theta_rad": theta, "pitch_rate_radps": w, "mass_kg": m,
+                },
+                "steps": p.stats.accepted_steps,
+                "error": Value::Null,
+            })
+        }
+        Err(e) => json!({ "error": e.to_string() }),
+    }
+}
+
+/// Add `landing_error` and `propagation` to the JSON of a solution.
+pub fn add_landing_json(v: &mut Value, p: &Result<Propagation, IntegrationError>) {
+    v["landing_error"] = landing_error_json(p);
+    v["propagation"] = propagation_json(p);
+}
+
+/// The whole `solve --json` object: [`Solution::to_json`] with the landing
+/// precision of `p` added.
+pub fn solve_json(solution: &Solution, p: &Result<Propagation, IntegrationError>) -> Value {
+    let mut v = solution.to_json();
+    add_landing_json(&mut v, p);
+    v
+}
+
+/// The flight as one JSON object.
+pub fn flight_json(
+    f: &Flight,
+    outcome: RunOutcome,
+    seed: u64,
+    run: u64,
+    config: &SimConfig,
+) -> Value {
+    json!({
+        "seed": seed,
+        "run": run,
+        "outcome": f.outcome,
+        "outcome_name": outcome,
+        "fuel_kg": f.fuel_kg(),
+        "first_plan": {
+            "status": f.first_plan.status.as_str(),
+            "nominal": f.first_plan_nominal,
+            "tf_s": f.first_plan.tf_s,
+            "final_mass_kg": f.first_plan.final_mass_kg,
+            "iterations": f.first_plan.iterations,
+        },
+        "replans": f.replans,
+        "saturation": f.saturation,
+        "config": config,
+    })
+}
+
+/// The columns of flight.csv, in order.
+pub const TRACE_COLUMNS: [&str; 12] = [
+    "t_s",
+    "x_m",
+    "z_m",
+    "vx_mps",
+    "vz_mps",
+    "theta_rad",
+    "pitch_rate_radps",
+    "mass_kg",
+    "delta_rad",
+    "thrust_cmd_n",
+    "gimbal_rate_cmd_radps",
+    "wind_mps",
+];
+
+/// The flown trace as columns ([`TRACE_COLUMNS`]): one value per plant step.
+pub fn trace_columns(f: &Flight) -> [Vec<f64>; 12] {
+    let col = |g: &dyn Fn(&crate::guidance::TraceSample) -> f64| {
+        f.trace.iter().map(g).collect::<Vec<f64>>()
+    };
+    [
+        col(&|s| s.t_s),
+        col(&|s| s.state.x_m),
+        col(&|s| s.state.z_m),
+        col(&|s| s.state.vx_mps),
+        col(&|s| s.state.vz_mps),
+        col(&|s| s.state.theta_rad),
+        col(&|s| s.state.pitch_rate_radps),
+        col(&|s| s.state.mass_kg),
+        col(&|s| s.state.gimbal_rad),
+        col(&|s| s.thrust_cmd_n),
+        col(&|s| s.gimbal_rate_cmd_radps),
+        col(&|s| s.wind_mps),
+    ]
+}
+
+/// The text of flight.csv: the header ([`TRACE_COLUMNS`]) and one line per
+/// plant step, numbers in full precision.
+pub fn trace_csv(f: &Flight) -> String {
+    let cols = trace_columns(f);
+    let mut csv = TRACE_COLUMNS.join(",");
+    csv.push('\n');
+    for i in 0..f.trace.len() {
+        let line: Vec<String> = cols.iter().map(|c| c[i].to_string()).collect();
+        csv.push_str(&line.join(","));
+        csv.push('\n');
+    }
+    csv
+}
