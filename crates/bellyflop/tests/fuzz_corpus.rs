@@ -165,7 +165,7 @@ fn seeded_mutants_of_the_corpus_never_panic() {
     assert!(valid.len() >= 8, "{} valid corpus files", valid.len());
     for k in 0..count {
         let k = k as usize;
-        let base = if k % 2 == 0 {
+        let base = if k.is_multiple_of(2) {
             valid[(k / 2) % valid.len()]
         } else {
             (k / 2) % files.len()
