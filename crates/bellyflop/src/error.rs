@@ -124,6 +124,17 @@ pub(crate) fn read_text(kind: FileKind, path: &std::path::Path) -> Result<String
         path: path.display().to_string(),
         message: e.to_string(),
     })?;
+    decode_text(kind, &path.display().to_string(), bytes)
+}
+
+/// Bytes as UTF-8 text; bytes that are not UTF-8 give [`InputError::NotUtf8`]
+/// naming `path` and where the first invalid byte is. [`read_text`] after
+/// reading the file, and [`crate::fuzzing::exercise`] on raw fuzz input.
+pub(crate) fn decode_text(
+    kind: FileKind,
+    path: &str,
+    bytes: Vec<u8>,
+) -> Result<String, InputError> {
     String::from_utf8(bytes).map_err(|e| {
         let byte = e.utf8_error().valid_up_to();
         let bytes = e.as_bytes();
@@ -132,7 +143,7 @@ pub(crate) fn read_text(kind: FileKind, path: &std::path::Path) -> Result<String
         let (line, column) = line_column(before);
         InputError::NotUtf8 {
             kind,
-            path: path.display().to_string(),
+            path: path.to_string(),
             value: bytes[byte],
             byte,
             line,

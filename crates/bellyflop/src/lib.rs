@@ -12,6 +12,8 @@
 //! - [`replan`]: warm re-plans from the shifted previous plan;
 //! - [`propagate`]: landing precision by re-integrating the nonlinear model;
 //! - [`feasibility`]: certificates that no trajectory exists (a stopping bound);
+//! - [`fuzzing`]: the function the fuzz target and the corpus replay run on raw
+//!   scenario bytes, with the invariants every answer must keep;
 //! - [`accuracy`]: the re-integrated landing error of a `solved` answer against
 //!   its tolerances;
 //! - [`sim`]: the truth plant and Monte-Carlo dispersions for closed-loop guidance;
@@ -26,6 +28,7 @@ pub mod direct;
 pub mod dynamics;
 pub mod error;
 pub mod feasibility;
+pub mod fuzzing;
 pub mod guidance;
 pub mod kkt;
 pub mod mesh;
