@@ -98,6 +98,8 @@ fn warm_replan(c: &mut Criterion) {
     g.measurement_time(Duration::from_secs(5));
     for n in [10, 20, 40] {
         let mut planner = Planner::new(paper(n));
+        // The SCvx warm re-plan (the scenario's default method is direct).
+        planner.method = bellyflop::Method::Scvx;
         planner.cold(&mut Silent);
         let plan = planner.plan.clone().expect("cold solve solved");
         let state = initial_state(&plan.state_at(0.5));

@@ -84,6 +84,8 @@ fn main() {
         s.discretization.nodes = n;
         s.solver.method = bellyflop::Method::Scvx;
         let mut planner = Planner::new(s);
+        // The SCvx warm re-plan (the scenario's default method is direct).
+        planner.method = bellyflop::Method::Scvx;
         let (cold, a, b) = count(|| planner.cold(&mut Silent));
         let it = cold.iterations.max(1);
         println!(

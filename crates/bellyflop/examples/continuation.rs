@@ -41,6 +41,8 @@ fn main() {
                 }
                 let s = paper(n);
                 let mut planner = Planner::new(s.clone());
+                // The SCvx warm re-plan (the scenario's default method is direct).
+                planner.method = bellyflop::Method::Scvx;
                 planner.plan = Some(Plan::from_solution(&sol));
                 sol = planner.replan(&s.initial, 0.0, &mut Silent).expect("valid");
                 its.push(sol.iterations);

@@ -38,6 +38,8 @@ fn main() {
             s.discretization.intervals = m as usize;
         }
         let mut planner = Planner::new(s);
+        // The SCvx warm re-plan (the scenario's default method is direct).
+        planner.method = bellyflop::Method::Scvx;
         let cold = planner.cold(&mut Silent);
         let Some(plan) = planner.plan.clone() else {
             println!(

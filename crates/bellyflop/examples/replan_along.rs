@@ -14,6 +14,8 @@ fn main() {
     let mut s = Scenario::paper();
     s.discretization.nodes = n;
     let mut planner = Planner::new(s);
+    // The SCvx warm re-plan (the scenario's default method is direct).
+    planner.method = bellyflop::Method::Scvx;
     let cold = planner.cold(&mut Silent);
     let plan = planner.plan.clone().expect("cold solve solved");
     println!("cold: {} its, tf {:.3} s", cold.iterations, cold.tf_s);

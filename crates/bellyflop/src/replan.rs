@@ -182,8 +182,9 @@ pub struct Planner {
     /// Proximal weight of a re-plan's subproblems, in place of the scenario's
     /// `solver.proximal_weight` (default [`WARM_PROXIMAL_WEIGHT`]).
     pub warm_proximal_weight: f64,
-    /// The method of the cold solve and the re-plans. Default SCvx, whose
-    /// re-plans the guidance defaults were tuned with.
+    /// The method of the cold solve and the re-plans (the scenario's
+    /// `solver.method` unless set; guidance sets it from
+    /// [`crate::guidance::GuidanceConfig::replan_method`]).
     pub method: Method,
     /// Interior-point iteration budget of a direct re-plan (its deadline).
     pub direct_max_iterations: usize,
@@ -196,11 +197,11 @@ impl Planner {
     /// `scenario` must have passed validation.
     pub fn new(scenario: Scenario) -> Planner {
         Planner {
+            method: scenario.solver.method,
             scenario,
             plan: None,
             warm_relaxed_iterations: 0,
             warm_proximal_weight: WARM_PROXIMAL_WEIGHT,
-            method: Method::Scvx,
             direct_max_iterations: DIRECT_REPLAN_ITERATIONS,
             conic_relaxed: ConicSolver::new(),
             conic: ConicSolver::new(),

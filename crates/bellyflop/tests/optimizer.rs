@@ -367,6 +367,8 @@ fn planned(
     let mut s = Scenario::paper();
     s.discretization.nodes = n;
     let mut planner = bellyflop::replan::Planner::new(s);
+    // The SCvx warm re-plan (the scenario's default method is direct).
+    planner.method = bellyflop::Method::Scvx;
     let cold = planner.cold(&mut Silent);
     assert_eq!(cold.status, Status::Solved, "cold N = {n}");
     let plan = planner.plan.as_ref().expect("a solved cold plan");
