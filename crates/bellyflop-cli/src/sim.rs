@@ -181,24 +181,12 @@ fn print_summary(f: &Flight, outcome: RunOutcome, seed: u64, run: u64) {
 
 pub use bellyflop::report::flight_json;
 
-/// The flown trajectory in the columns of `trajectory.csv`.
+/// The flown trajectory in the columns of `trajectory.csv`: the flight
+/// trace's columns ([`bellyflop::report::trace_columns`]) without the wind.
 fn flown(f: &Flight) -> Dense {
-    let col = |g: &dyn Fn(&bellyflop::guidance::TraceSample) -> f64| {
-        f.trace.iter().map(g).collect::<Vec<f64>>()
-    };
-    Dense::from_columns([
-        col(&|s| s.t_s),
-        col(&|s| s.state.x_m),
-        col(&|s| s.state.z_m),
-        col(&|s| s.state.vx_mps),
-        col(&|s| s.state.vz_mps),
-        col(&|s| s.state.theta_rad),
-        col(&|s| s.state.pitch_rate_radps),
-        col(&|s| s.state.mass_kg),
-        col(&|s| s.state.gimbal_rad),
-        col(&|s| s.thrust_cmd_n),
-        col(&|s| s.gimbal_rate_cmd_radps),
-    ])
+    let [t, x, z, vx, vz, theta, w, m, delta, thrust, chi, _wind] =
+        bellyflop::report::trace_columns(f);
+    Dense::from_columns([t, x, z, vx, vz, theta, w, m, delta, thrust, chi])
 }
 
 fn write(
