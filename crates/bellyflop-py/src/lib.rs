@@ -190,17 +190,14 @@ impl Scenario {
     /// Build and validate from nested dicts with the TOML's tables and keys.
     #[staticmethod]
     fn from_dict(d: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let value = py_to_toml(d, "")?;
-        let inner: CoreScenario = value
-            .try_into()
-            .map_err(|e: toml::de::Error| InputError::new_err(format!("scenario dict: {e}")))?;
+        let inner: CoreScenario = from_dict_value(d, "scenario")?;
         inner.validate().map_err(input_error)?;
         Ok(Scenario { inner })
     }
 
     /// The scenario as TOML text (reads back to an equal scenario).
     fn to_toml(&self) -> PyResult<String> {
-        toml::to_string(&self.inner).map_err(|e| InternalError::new_err(e.to_string()))
+        to_toml_text(&self.inner)
     }
 
     /// The scenario as nested dicts (the TOML's tables and keys).
@@ -240,8 +237,29 @@ impl Scenario {
 
 impl Scenario {
     fn json(&self) -> PyResult<Value> {
-        serde_json::to_value(&self.inner).map_err(|e| InternalError::new_err(e.to_string()))
+        to_json(&self.inner)
     }
+}
+
+/// A value of `T` from nested dicts with its TOML tables and keys (not yet
+/// validated); `what` names it in the error.
+fn from_dict_value<T: serde::de::DeserializeOwned>(
+    d: &Bound<'_, PyAny>,
+    what: &str,
+) -> PyResult<T> {
+    py_to_toml(d, "")?
+        .try_into()
+        .map_err(|e: toml::de::Error| InputError::new_err(format!("{what} dict: {e}")))
+}
+
+/// `v` as TOML text.
+fn to_toml_text<T: serde::Serialize>(v: &T) -> PyResult<String> {
+    toml::to_string(v).map_err(|e| InternalError::new_err(e.to_string()))
+}
+
+/// `v` as a JSON value (the attribute views and `to_dict`).
+fn to_json<T: serde::Serialize>(v: &T) -> PyResult<Value> {
+    serde_json::to_value(v).map_err(|e| InternalError::new_err(e.to_string()))
 }
 
 /// The closed-loop configuration: `[dispersions]`, `[guidance]`, `[plant]`,
@@ -288,16 +306,13 @@ impl SimConfig {
 
     #[staticmethod]
     fn from_dict(d: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let value = py_to_toml(d, "")?;
-        let inner: CoreSimConfig = value
-            .try_into()
-            .map_err(|e: toml::de::Error| InputError::new_err(format!("config dict: {e}")))?;
+        let inner: CoreSimConfig = from_dict_value(d, "config")?;
         inner.validate().map_err(input_error)?;
         Ok(SimConfig { inner })
     }
 
     fn to_toml(&self) -> PyResult<String> {
-        toml::to_string(&self.inner).map_err(|e| InternalError::new_err(e.to_string()))
+        to_toml_text(&self.inner)
     }
 
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
@@ -331,7 +346,7 @@ impl SimConfig {
 
 impl SimConfig {
     fn json(&self) -> PyResult<Value> {
-        serde_json::to_value(&self.inner).map_err(|e| InternalError::new_err(e.to_string()))
+        to_json(&self.inner)
     }
 }
 
