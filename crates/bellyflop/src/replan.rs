@@ -211,7 +211,7 @@ impl Planner {
     /// Cold solve from the straight line with the planner's method; a
     /// solved answer becomes the plan.
     pub fn cold(&mut self, observer: &mut dyn Observer) -> Solution {
-        let sol = self.cold_solve(&self.scenario.clone(), observer);
+        let sol = self.cold_solve(&self.scenario, observer);
         self.adopt(sol)
     }
 
@@ -342,9 +342,16 @@ impl Planner {
         let cold = direct::solve(&s, observer);
         let better = cold.status == crate::Status::Solved
             && (warm.status != crate::Status::Solved || cold.final_mass_kg > warm.final_mass_kg);
+        // Both solves' iterations, warm first, in the history and the count.
+        let mut history = warm.direct_history.clone();
+        history.extend(cold.direct_history.iter().cloned());
         let (mut sol, other) = if better { (cold, warm) } else { (warm, cold) };
         sol.iterations += other.iterations;
         sol.solve_time_ms += other.solve_time_ms;
+        for (k, h) in history.iter_mut().enumerate() {
+            h.iteration = k + 1;
+        }
+        sol.direct_history = history;
         sol
     }
 }
