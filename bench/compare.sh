@@ -10,10 +10,13 @@
 # N). It overrides the scenario's discretization.intervals on both sides.
 # The reference runs with --ground (bellyflop's ground bound z >= z_f), so both
 # sides solve one program.
-# Ours: the CLI's `solve_time_ms` (the method's solve, its setup excluded)
-# over REPEAT separate runs of `bellyflop solve --json --quiet`; median reported.
-# IPOPT: the reference's `solve_time_ms`, itself the median of REPEAT solve calls
-# from the straight-line guess (solver build time excluded).
+# Both sides time the same way: the median of REPEAT solves from the
+# straight-line guess in one process.
+# Ours: `bellyflop solve --json --quiet --repeat REPEAT`, whose `solve_time_ms`
+# is the median of the method's solve (scenario parsing excluded).
+# IPOPT: the reference's `solve_time_ms` with `--repeat REPEAT` (solver build
+# time excluded). Until 2026-12-01 ours was the median of REPEAT separate
+# processes, each solve cold, against IPOPT's warm calls.
 # Any failure (build, non-solved status, IPOPT not converging) aborts the script.
 set -euo pipefail
 
@@ -53,16 +56,13 @@ BIN="target/release/bellyflop"
 TMP="$(mktemp -d)"
 trap 'rm -rf "$TMP"' EXIT
 
-# ours N -> prints "median_ms iterations" (fails unless every run is `solved`)
+# ours N -> prints "median_ms iterations final_mass min_ms max_ms" (fails unless `solved`)
 ours() {
-    local n="$1" i rc
-    : > "$TMP/ours_$n"
-    for ((i = 1; i <= REPEAT; i++)); do
-        rc=0
-        "$BIN" solve --scenario "$SCENARIO" --json --quiet --nodes "$n" \
-            --intervals "$INTERVALS" --method "$METHOD" > "$TMP/run.json" || rc=$?
-        [ "$rc" -eq 0 ] || die "ours at N=$n M=$INTERVALS, run $i: bellyflop exited with $rc"
-        python3 - "$TMP/run.json" "$n" "$INTERVALS" >> "$TMP/ours_$n" <<'PY' || die "ours at N=$n M=$INTERVALS: bad output"
+    local n="$1" rc=0
+    "$BIN" solve --scenario "$SCENARIO" --json --quiet --nodes "$n" \
+        --intervals "$INTERVALS" --method "$METHOD" --repeat "$REPEAT" > "$TMP/run.json" || rc=$?
+    [ "$rc" -eq 0 ] || die "ours at N=$n M=$INTERVALS: bellyflop exited with $rc"
+    python3 - "$TMP/run.json" "$n" "$INTERVALS" "$REPEAT" <<'PY' || die "ours at N=$n M=$INTERVALS: bad output"
 import json, sys
 d = json.load(open(sys.argv[1]))
 if d.get("status") != "solved":
@@ -71,14 +71,10 @@ if d.get("nodes") != int(sys.argv[2]):
     sys.exit(f"nodes {d.get('nodes')} != {sys.argv[2]}")
 if "intervals" in d and d["intervals"] != int(sys.argv[3]):
     sys.exit(f"intervals {d['intervals']} != {sys.argv[3]}")
-print(d["solve_time_ms"], d["iterations"], d["final_mass_kg"])
-PY
-    done
-    python3 - "$TMP/ours_$n" <<'PY'
-import statistics, sys
-rows = [l.split() for l in open(sys.argv[1]) if l.strip()]
-t = [float(r[0]) for r in rows]
-print(f"{statistics.median(t):.3f} {rows[0][1]} {float(rows[0][2]):.3f} {min(t):.3f} {max(t):.3f}")
+if d.get("repeat") != int(sys.argv[4]):
+    sys.exit(f"repeat {d.get('repeat')} != {sys.argv[4]}")
+print(f"{d['solve_time_ms']:.3f} {d['iterations']} {d['final_mass_kg']:.3f} "
+      f"{d['solve_time_min_ms']:.3f} {d['solve_time_max_ms']:.3f}")
 PY
 }
 

@@ -99,6 +99,12 @@ struct SolveArgs {
     /// Write trajectory.csv, solution.json and the plots (SVG and PNG) into DIR.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Solve R times in this process and report the median solve time (and
+    /// its minimum and maximum), as the IPOPT reference's `--repeat` does;
+    /// the solution is the last run's (every run gives the same one).
+    #[arg(long, value_name = "R", default_value_t = 1,
+          value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    repeat: u32,
 }
 
 /// Exit code for bad input (before any solve).
@@ -156,15 +162,20 @@ fn solve(args: SolveArgs) -> ExitCode {
     }
     let quiet = args.quiet || args.json;
     let mut progress = Progress { quiet };
-    let solution = bellyflop::solve(&scenario, &mut progress);
+    let (solution, times_ms) = solve_repeated(&scenario, &mut progress, args.repeat);
     let propagation = landing::propagate(&scenario, &solution, args.interpolation);
     // One JSON object: printed by --json, and written as solution.json by --out.
     let mut v = solution.to_json();
+    if args.repeat > 1 {
+        v["repeat"] = args.repeat.into();
+        v["solve_time_min_ms"] = times_ms[0].into();
+        v["solve_time_max_ms"] = times_ms[times_ms.len() - 1].into();
+    }
     landing::add_to_json(&mut v, &propagation);
     if args.json {
         println!("{v}");
     } else {
-        print_summary(&scenario, &solution);
+        print_summary(&scenario, &solution, &times_ms);
         landing::print_summary(&propagation, solution.final_mass_kg);
     }
     if let Some(dir) = &args.out {
@@ -176,6 +187,37 @@ fn solve(args: SolveArgs) -> ExitCode {
         }
     }
     ExitCode::from(solution.status.exit_code() as u8)
+}
+
+/// Solve `repeat` times (progress shown for the first run only); the last
+/// solution with the median solve time, and the sorted times. Every run must
+/// give the same answer: the solvers are deterministic, and a difference is
+/// reported on stderr.
+fn solve_repeated(
+    scenario: &Scenario,
+    progress: &mut Progress,
+    repeat: u32,
+) -> (Solution, Vec<f64>) {
+    let mut solution = bellyflop::solve(scenario, progress);
+    let mut times_ms = vec![solution.solve_time_ms];
+    for _ in 1..repeat {
+        let again = bellyflop::solve(scenario, &mut Progress { quiet: true });
+        if again.status != solution.status || again.final_mass_kg != solution.final_mass_kg {
+            eprintln!(
+                "warning: a repeated solve differed: {} at {} kg, then {} at {} kg",
+                solution.status.as_str(),
+                solution.final_mass_kg,
+                again.status.as_str(),
+                again.final_mass_kg
+            );
+        }
+        times_ms.push(again.solve_time_ms);
+        solution = again;
+    }
+    times_ms.sort_by(f64::total_cmp);
+    let k = times_ms.len();
+    solution.solve_time_ms = 0.5 * (times_ms[(k - 1) / 2] + times_ms[k / 2]);
+    (solution, times_ms)
 }
 
 /// Per-iteration progress on stderr.
@@ -223,7 +265,8 @@ impl bellyflop::Observer for Progress {
     }
 }
 
-fn print_summary(scenario: &Scenario, s: &Solution) {
+/// The human summary; `times_ms` are the sorted solve times of `--repeat`.
+fn print_summary(scenario: &Scenario, s: &Solution, times_ms: &[f64]) {
     println!("scenario      {}", scenario.name);
     println!("status        {}", s.status.as_str());
     if !s.message.is_empty() {
@@ -260,7 +303,17 @@ fn print_summary(scenario: &Scenario, s: &Solution) {
             s.iterations
         ),
     }
-    println!("solve time    {:.1} ms", s.solve_time_ms);
+    if times_ms.len() > 1 {
+        println!(
+            "solve time    {:.1} ms (median of {} runs; min {:.1} ms, max {:.1} ms)",
+            s.solve_time_ms,
+            times_ms.len(),
+            times_ms[0],
+            times_ms[times_ms.len() - 1]
+        );
+    } else {
+        println!("solve time    {:.1} ms", s.solve_time_ms);
+    }
     println!(
         "checks        defect {:.1e}, virtual control {:.1e}, relaxation gap {:.1e}, thrust alignment {:.6}",
         s.checks.max_defect, s.checks.virtual_control, s.checks.relaxation_gap, s.checks.thrust_alignment_min

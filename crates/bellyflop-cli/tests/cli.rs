@@ -44,6 +44,31 @@ fn json_has_the_documented_fields() {
     assert!((fuel - burnt).abs() < 1e-6);
 }
 
+/// `--repeat R` solves R times in one process: the answer of one run, the
+/// median time between the minimum and the maximum; R = 0 is bad input.
+#[test]
+fn repeat_reports_the_median_of_identical_runs() {
+    let (code, once, _) = bellyflop(&["solve", "--json", "--nodes", "20"]);
+    assert_eq!(code, 0);
+    let (code, rep, _) = bellyflop(&["solve", "--json", "--nodes", "20", "--repeat", "3"]);
+    assert_eq!(code, 0);
+    let once: serde_json::Value = serde_json::from_str(&once).unwrap();
+    let rep: serde_json::Value = serde_json::from_str(&rep).unwrap();
+    assert_eq!(rep["repeat"], 3);
+    assert!(once.get("repeat").is_none());
+    assert_eq!(rep["final_mass_kg"], once["final_mass_kg"]);
+    assert_eq!(rep["iterations"], once["iterations"]);
+    let t = |k: &str| rep[k].as_f64().unwrap();
+    assert!(t("solve_time_min_ms") <= t("solve_time_ms"));
+    assert!(t("solve_time_ms") <= t("solve_time_max_ms"));
+    let (code, _, stderr) = bellyflop(&["solve", "--repeat", "0"]);
+    assert_eq!(code, 2);
+    assert!(
+        stderr.contains("--repeat") && stderr.contains("1..=10000"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn toml_error_names_the_line_and_exits_2() {
     let path = write_scenario("broken.toml", |t| {
