@@ -157,10 +157,10 @@ const KAPPA_W_MINUS: f64 = 1.0 / 3.0;
 const KAPPA_W_PLUS: f64 = 8.0;
 const KAPPA_W_PLUS_FIRST: f64 = 100.0;
 /// Static regularization of every node block (scaled units). The free
-/// variables x and w enter the problem linearly and have no bounds, so
-/// their rows of W are zero; 1e-9 keeps the blocks factorable without
-/// counting as an inertia correction, and iterative refinement removes its
-/// effect on the step.
+/// variable w enters the problem linearly and has no bounds, so its rows of
+/// W are zero; 1e-9 keeps the blocks factorable without counting as an
+/// inertia correction, and iterative refinement removes its effect on the
+/// step. (x is linear too, but the KKT solve eliminates it exactly.)
 const DELTA_STATIC: f64 = 1e-9;
 /// Dual regularization δ_c = 1e-8·μ^{1/4} when S is singular.
 const DELTA_C: f64 = 1e-8;
@@ -480,7 +480,10 @@ impl<'a> Driver<'a> {
         let kkt = &mut self.ws.kkt;
         for k in 0..=nlp.n {
             for s in 0..NL {
-                kkt.w[k][s][s] += sigma(nlp.idx(k, s)) + DELTA_STATIC;
+                // The eliminated positions' rows stay zero (kkt.rs).
+                if !self.ws.solver.eliminates(k, s) {
+                    kkt.w[k][s][s] += sigma(nlp.idx(k, s)) + DELTA_STATIC;
+                }
             }
         }
         kkt.h_tt = sigma(nlp.tf_idx());
@@ -548,10 +551,14 @@ impl<'a> Driver<'a> {
         }
         if delta_w > 0.0 {
             self.delta_w_last = delta_w;
-            // Keep the system consistent with its factors for refinement.
-            for w in &mut self.ws.kkt.w {
+            // Keep the system consistent with its factors for refinement
+            // (the eliminated positions take no correction: x is fixed by
+            // its defects, so δ_w on it would not change the reduced Hessian).
+            for (k, w) in self.ws.kkt.w.iter_mut().enumerate() {
                 for (s, row) in w.iter_mut().enumerate() {
-                    row[s] += delta_w;
+                    if !self.ws.solver.eliminates(k, s) {
+                        row[s] += delta_w;
+                    }
                 }
             }
         }
@@ -580,7 +587,13 @@ impl<'a> Driver<'a> {
                     ws.res_w[j] = 0.0;
                     continue;
                 }
-                ws.res_w[j] = ws.rw[j] - (ws.res_w[j] - DELTA_STATIC * ws.dw[j]);
+                let (k, s) = (j / NL, j % NL);
+                let static_part = if ws.solver.eliminates(k, s) {
+                    0.0
+                } else {
+                    DELTA_STATIC * ws.dw[j]
+                };
+                ws.res_w[j] = ws.rw[j] - (ws.res_w[j] - static_part);
                 worst = worst.max(ws.res_w[j].abs());
             }
             let tf = nlp.tf_idx();
@@ -630,14 +643,18 @@ impl<'a> Driver<'a> {
     }
 
     /// Initial multipliers: λ from the least-squares estimate (§3.6), set to
-    /// zero if it is large.
+    /// zero if it is large. The eliminated positions keep W's zero rows, so
+    /// their stationarity (Aᵀλ_x = 0, x being absent from the objective) is
+    /// met exactly rather than in the least-squares sense.
     fn initial_multipliers(&mut self, it: &mut Iterate) {
         let nlp = self.nlp;
         for k in 0..=nlp.n {
             let w = &mut self.ws.kkt.w[k];
             *w = [[0.0; NL]; NL];
             for (s, row) in w.iter_mut().enumerate() {
-                row[s] = 1.0;
+                if !self.ws.solver.eliminates(k, s) {
+                    row[s] = 1.0;
+                }
             }
             self.ws.kkt.h_t[k] = [0.0; NL];
             if k < nlp.n {

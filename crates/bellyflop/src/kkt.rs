@@ -11,24 +11,29 @@
 //! ```
 //!
 //! W (the Hessian of the Lagrangian plus the barrier terms) is block-diagonal
-//! per node, and J_y is D ⊗ I on the states plus one 8×10 block per
-//! collocation point. Each block W_k (at most 10×10, symmetric, possibly
-//! indefinite) is factored by Bunch–Kaufman and inverted; the reduced system
+//! per node, and J_y is D ⊗ I on the states plus one 8×12 block per
+//! collocation point. The positions x_1 … x_{N−1} and their defects are
+//! first eliminated exactly ([`XElimination`]: x is linear, with zero rows
+//! of W), leaving one row ν of their defects. Each block W_k (at most 12
+//! square, symmetric, possibly indefinite) is factored and inverted (an
+//! unpivoted LDLᵀ with a growth test, Bunch–Kaufman as fallback); the
+//! reduced system
 //!
 //! ```text
 //! R = [ h_tt − h_tᵀ W⁻¹ h_t    gᵀ ]     g = j_t − J_y W⁻¹ h_t
 //!     [ g                    −S  ]     S = δ_c I + J_y W⁻¹ J_yᵀ
 //! ```
 //!
-//! (8N + 1 square, dense on the global mesh) is factored densely. By
-//! Sylvester's law of inertia, In(K) = Σ_k In(W_k) + In(R): the
+//! over the kept multipliers, ν and t̂_f (7N + 2 square, dense on the global
+//! mesh) is factored densely. By Sylvester's law of inertia, In(K) =
+//! Σ_k In(W_k) + In(R) + (N − 1, N − 1, 0) (the eliminated pairs): the
 //! factorization reports the inertia that the interior-point method checks
 //! (n positive and m negative eigenvalues for a descent direction), exactly
 //! as a sparse LDLᵀ of K would, without its fill-in.
 //!
-//! R is first factored by faer's LDLᵀ without pivoting, which takes 60 µs
-//! at n = 161 where its Bunch–Kaufman LBLᵀ takes 160 µs (`/tmp` microbench
-//! of faer 0.24, one core). R is indefinite (most W_k are, so S is too), so
+//! R is first factored by faer's LDLᵀ without pivoting, which took 60 µs
+//! at n = 161 where its Bunch–Kaufman LBLᵀ took 160 µs (a microbench of
+//! faer 0.24 on one core of this machine, before x's elimination). R is indefinite (most W_k are, so S is too), so
 //! no pivot order is guaranteed stable: the factors are kept only when their
 //! growth max_i Σ_j L_ij² |D_j| / ‖R_i·‖₂ (at most 1 for a definite matrix)
 //! is at most [`GROWTH_MAX`], and R is factored by Bunch–Kaufman otherwise.
@@ -51,7 +56,9 @@ use faer::perm::PermRef;
 use faer::reborrow::ReborrowMut;
 use faer::{Accum, ColMut, ColRef, MatMut, MatRef, Par};
 
-use crate::nlp::{Nlp, NL, NS};
+use nalgebra::{DMatrix, DVector};
+
+use crate::nlp::{slot, Nlp, NL, NS};
 
 /// An 8×8 block over the states.
 type Block8 = [[f64; NS]; NS];
@@ -533,34 +540,150 @@ fn small_ldlt_inverse(
     Some(inertia)
 }
 
+/// Kept states per collocation point in R: z, Vx, Vz, θ, w, m, δ (x's
+/// defects are eliminated, [`XElimination`]).
+const NR: usize = NS - 1;
+
+/// The exact elimination of the positions x_1 … x_{N−1} and of their
+/// defects.
+///
+/// x enters P2 only through its own defects, D x − (t_f/2)·Vx = 0 (scaled),
+/// so its rows of W and h_t are zero: the block of K over (x, λ_x) is
+/// [0 Aᵀ; A −δ_c I] with A = D over the free x columns (N × (N − 1), full
+/// column rank) and the rest of K touches it only through λ_x's rows
+/// B̃ y (B̃: the Vx and t̂_f entries, and x_N's column of D when the soft
+/// terminal term frees it). Splitting λ_x = A s + ŵ ν with ŵ the unit left
+/// null vector of A (the quadrature weights: ŵᵀA = 0):
+///
+/// - x's rows give Aᵀ A s = r_x, so A s = q = A⁺ᵀ r_x is known;
+/// - ŵᵀ(λ_x's rows) is one row of R, ŵᵀB̃ y − δ_c ν = ŵᵀ r_λx;
+/// - the rest of K sees B̃ᵀ q on its right-hand side, and no change in its
+///   matrix (the Schur complement of [0 Aᵀ; A −δ_c I] onto it is zero);
+/// - afterwards Δx = A⁺(r_λx − B̃ y + δ_c q).
+///
+/// R shrinks from 8N + 1 to 7N + 2 (a third less to factor), the node blocks
+/// lose x's zero row, and the pair adds N − 1 positive and N − 1 negative
+/// eigenvalues to K's inertia.
+struct XElimination {
+    /// Per node: whether x is eliminated (free and k < N).
+    at: Vec<bool>,
+    /// The eliminated nodes, in order.
+    nodes: Vec<usize>,
+    /// A⁺ = (AᵀA)⁻¹Aᵀ, (N − 1) × N, row-major (row e: node nodes[e]).
+    pinv: Vec<f64>,
+    /// ŵ, N.
+    null: Vec<f64>,
+    /// ŵᵀ D_{·N}: the coefficient of x_N in ν's row when x_N is free.
+    null_d_last: f64,
+}
+
+impl XElimination {
+    fn new(nlp: &Nlp, d: &[f64]) -> Self {
+        let n = nlp.n;
+        let at: Vec<bool> = (0..=n)
+            .map(|k| k < n && !nlp.is_fixed(nlp.idx(k, slot::X)))
+            .collect();
+        let nodes: Vec<usize> = (0..=n).filter(|&k| at[k]).collect();
+        let ne = nodes.len();
+        let a = DMatrix::from_fn(n, ne, |i, e| d[nodes[e] * n + i]);
+        // A = Q₁R (Householder): A⁺ = R⁻¹Q₁ᵀ, conditioned as A, not AᵀA.
+        let qr = a.clone().qr();
+        let (q, r) = (qr.q(), qr.r());
+        let pinv = r
+            .solve_upper_triangular(&q.transpose())
+            .expect("A has full column rank: D without x_0's column is nonsingular");
+        // ŵ: the unit vector orthogonal to Q₁, from the basis vector it
+        // leaves most of.
+        let mut best = DVector::zeros(n);
+        for j in 0..n {
+            let mut v = DVector::zeros(n);
+            v[j] = 1.0;
+            let v = &v - &q * (q.transpose() * &v);
+            if v.norm() > best.norm() {
+                best = v;
+            }
+        }
+        // The sign is free; the weights' (positive) one reads best.
+        let null = best.normalize() * best.sum().signum();
+        let null_d_last = (0..n).map(|i| null[i] * d[n * n + i]).sum();
+        XElimination {
+            at,
+            nodes,
+            pinv: (0..ne)
+                .flat_map(|e| (0..n).map(move |i| (e, i)))
+                .map(|(e, i)| pinv[(e, i)])
+                .collect(),
+            null: null.iter().copied().collect(),
+            null_d_last,
+        }
+    }
+
+    /// y ← A⁺ v (y: one entry per eliminated node).
+    fn pinv_mul(&self, v: &[f64], y: &mut [f64]) {
+        let n = v.len();
+        for (e, ye) in y.iter_mut().enumerate() {
+            *ye = self.pinv[e * n..(e + 1) * n]
+                .iter()
+                .zip(v)
+                .map(|(p, v)| p * v)
+                .sum();
+        }
+    }
+
+    /// q ← A⁺ᵀ r (r: one entry per eliminated node).
+    fn pinv_t_mul(&self, r: &[f64], q: &mut [f64]) {
+        let n = q.len();
+        q.iter_mut().for_each(|v| *v = 0.0);
+        for (e, re) in r.iter().enumerate() {
+            for (qi, p) in q.iter_mut().zip(&self.pinv[e * n..(e + 1) * n]) {
+                *qi += p * re;
+            }
+        }
+    }
+}
+
 /// Storage and factors of the structured KKT solve.
 pub struct KktSolver {
     n: usize,
-    /// Per node: the free local slots, in order.
+    /// Per node: the free local slots in the node block (x excluded where
+    /// eliminated), in order, and each slot's position (usize::MAX: none).
     slots: Vec<Vec<usize>>,
-    /// Per node: M_k = (W_k + δ I)⁻¹ over the free slots (row-major, NL×NL).
+    pos: Vec<[usize; NL]>,
+    /// The elimination of x and its defects.
+    x: XElimination,
+    /// Per node: M_k = (W_k + δ I)⁻¹ over the block's slots (row-major, NL×NL).
     m_inv: Vec<[[f64; NL]; NL]>,
     /// The node blocks' factorization (≤ NL square).
     node: Lblt,
-    /// R, (8N + 1) square: the multipliers, then t̂_f.
+    /// R, (7N + 2) square: the kept multipliers (state-major), ν, then t̂_f.
     reduced: Lblt,
     /// R's LDLᵀ without pivoting, and the largest growth kept.
     unpivoted: Ldlt,
     growth_max: f64,
     /// Which factorization of R the solves use.
     path: ReducedPath,
-    /// Per-node work: ỹ.
+    /// Per node: the right-hand side of its block and ỹ.
+    r_tmp: Vec<[f64; NL]>,
     y_tmp: Vec<[f64; NL]>,
-    /// R's right-hand side (state-major, then t̂_f) and a point-major copy.
+    /// Per node: ν's row over the block's slots, e_k, and M_k e_k.
+    e: Vec<[f64; NL]>,
+    me: Vec<[f64; NL]>,
+    /// R's right-hand side; the kept states' values state-major over the
+    /// nodes ((N + 1) each); x's work vectors (N and N − 1).
     rhs: Vec<f64>,
-    pm: Vec<f64>,
+    by_state: Vec<f64>,
+    xq: Vec<f64>,
+    xv: Vec<f64>,
+    xe: Vec<f64>,
+    /// ν's couplings with the kept multipliers, S_{ν·}.
+    s_nu: Vec<f64>,
     /// The dense N × (N+1) differentiation matrix, column-major.
     d: Vec<f64>,
     /// D again, row-major (row i is D_i·), for contiguous row access.
     d_rows: Vec<f64>,
     /// R_i[c2][c] by (c2, c), contiguous in i.
     rt: Vec<f64>,
-    /// P = (I ⊗ D)·blockdiag(Q): dim × 8(N+1), column-major.
+    /// P = (I ⊗ D)·blockdiag(Q) over the kept states: 7N × 7(N+1), column-major.
     p: Vec<f64>,
     /// Per collocation point: R_k = E M Bᵀ and T_k = B M Bᵀ.
     cross: Vec<(Block8, Block8)>,
@@ -569,50 +692,76 @@ pub struct KktSolver {
 impl KktSolver {
     pub fn new(nlp: &Nlp) -> Self {
         let n = nlp.n;
-        let slots = (0..=n)
-            .map(|k| (0..NL).filter(|&s| !nlp.is_fixed(nlp.idx(k, s))).collect())
+        let mut d = vec![0.0; n * (n + 1)];
+        let mut d_rows = vec![0.0; n * (n + 1)];
+        for (k, col) in nlp.d_cols.iter().enumerate() {
+            for &(i, v) in col {
+                d[k * n + i] = v;
+                d_rows[i * (n + 1) + k] = v;
+            }
+        }
+        let x = XElimination::new(nlp, &d);
+        let slots: Vec<Vec<usize>> = (0..=n)
+            .map(|k| {
+                (0..NL)
+                    .filter(|&s| !(nlp.is_fixed(nlp.idx(k, s)) || s == slot::X && x.at[k]))
+                    .collect()
+            })
             .collect();
+        let pos = slots
+            .iter()
+            .map(|sl| {
+                let mut pos = [usize::MAX; NL];
+                for (p, &s) in sl.iter().enumerate() {
+                    pos[s] = p;
+                }
+                pos
+            })
+            .collect();
+        let ne = x.nodes.len();
+        let rd = NR * n + 2;
         KktSolver {
             n,
             slots,
+            pos,
+            x,
             m_inv: vec![[[0.0; NL]; NL]; n + 1],
             node: Lblt::new(NL, NL),
-            reduced: Lblt::new(n * NS + 1, 1),
-            unpivoted: Ldlt::new(n * NS + 1),
+            reduced: Lblt::new(rd, 1),
+            unpivoted: Ldlt::new(rd),
             growth_max: GROWTH_MAX,
             path: ReducedPath::BunchKaufman,
+            r_tmp: vec![[0.0; NL]; n + 1],
             y_tmp: vec![[0.0; NL]; n + 1],
-            rhs: vec![0.0; n * NS + 1],
-            pm: vec![0.0; n * NS],
-            d: {
-                let mut d = vec![0.0; n * (n + 1)];
-                for (k, col) in nlp.d_cols.iter().enumerate() {
-                    for &(i, v) in col {
-                        d[k * n + i] = v;
-                    }
-                }
-                d
-            },
-            d_rows: {
-                let mut d = vec![0.0; n * (n + 1)];
-                for (k, col) in nlp.d_cols.iter().enumerate() {
-                    for &(i, v) in col {
-                        d[i * (n + 1) + k] = v;
-                    }
-                }
-                d
-            },
+            e: vec![[0.0; NL]; n + 1],
+            me: vec![[0.0; NL]; n + 1],
+            rhs: vec![0.0; rd],
+            by_state: vec![0.0; NR * (n + 1)],
+            xq: vec![0.0; n],
+            xv: vec![0.0; n],
+            xe: vec![0.0; ne],
+            s_nu: vec![0.0; NR * n],
+            d,
+            d_rows,
             rt: vec![0.0; NS * NS * n],
-            p: vec![0.0; n * NS * NS * (n + 1)],
+            p: vec![0.0; NR * n * NR * (n + 1)],
             cross: vec![([[0.0; NS]; NS], [[0.0; NS]; NS]); n],
         }
     }
 
+    /// The kept multipliers and ν: R without t̂_f.
     fn dim(&self) -> usize {
-        self.n * NS
+        NR * self.n + 1
     }
 
-    /// Number of free variables of node k.
+    /// Whether slot `s` of node `k` is eliminated from the node blocks (the
+    /// free positions x_1 … x_{N−1}): their rows of W and h_t must be zero,
+    /// and the solve neither reads nor regularizes them.
+    pub fn eliminates(&self, k: usize, s: usize) -> bool {
+        s == slot::X && self.x.at[k]
+    }
+
+    /// Number of variables of node k's block.
     pub fn node_size(&self, k: usize) -> usize {
         self.slots[k].len()
     }
@@ -671,47 +820,84 @@ impl KktSolver {
                 .factor(&mut self.reduced.a[..rd * rd], rd, self.growth_max)
         {
             self.path = ReducedPath::Unpivoted;
-            return inertia;
+            return inertia + self.eliminated_inertia();
         }
         self.form_reduced(kkt);
         self.path = ReducedPath::BunchKaufman;
-        self.reduced.factor(rd)
+        self.reduced.factor(rd) + self.eliminated_inertia()
+    }
+
+    /// The inertia of the eliminated pairs (x_k, its part of λ_x): N − 1
+    /// positive and N − 1 negative eigenvalues.
+    fn eliminated_inertia(&self) -> Inertia {
+        let ne = self.x.nodes.len();
+        Inertia {
+            positive: ne,
+            negative: ne,
+            zero: 0,
+        }
     }
 
     /// Form R's lower triangle in `reduced.a`, and g in `rhs`.
     ///
-    /// Inside R the multipliers are ordered state-major (λ of state c at
-    /// point i is row c·N + i), so that the D ⊗ I part of S,
-    /// S^{cc2} = D·diag(Q_k(c, c2))·Dᵀ, is eight dense products P_{c2}·Dᵀ
-    /// (faer's SIMD matmul) instead of a scattered 64·N³ loop, which took
-    /// 56 % of a solve at N = 40 (perf).
+    /// Inside R the kept multipliers are ordered state-major (λ of state c at
+    /// point i is row (c − 1)·N + i), so that the D ⊗ I part of S,
+    /// S^{cc2} = D·diag(Q_k(c, c2))·Dᵀ, is seven dense products P_{c2}·Dᵀ
+    /// (faer's SIMD matmul) instead of a scattered 49·N³ loop, which took
+    /// 56 % of a solve at N = 40 (perf). ν's row is formed like any other
+    /// constraint's, from its per-node coefficients e_k.
     fn form_reduced(&mut self, kkt: &KktMatrix) {
         let n = self.n;
         let dim = self.dim();
         let rd = dim + 1;
         let nn = n + 1;
-        let sm = |c: usize, i: usize| c * n + i;
+        let pdim = NR * n;
+        let nu = pdim;
+        let sm = |c: usize, i: usize| (c - 1) * n + i;
         let mut g = std::mem::take(&mut self.rhs);
         for i in 0..n {
-            for c in 0..NS {
+            for c in 1..NS {
                 g[sm(c, i)] = kkt.j_t[i][c];
             }
         }
+        g[nu] = (0..n).map(|i| self.x.null[i] * kkt.j_t[i][slot::X]).sum();
+        self.s_nu.iter_mut().for_each(|v| *v = 0.0);
+        let mut s_nunu = 0.0;
         let mut a = kkt.h_tt;
         // P is not cleared: every factorization writes the same entries (the
         // free slots do not change), and the others stay at the zeros of
         // `new` (clearing it was 1.5 % of a solve at N = 20).
-        // Per node: P, g, a; the cross terms R_k and T_k are kept for later.
+        // Per node: P, g, a, ν's couplings; the cross terms R_k and T_k are
+        // kept for later.
         for k in 0..=n {
             let sl = &self.slots[k];
             let b = sl.len();
             let m = &self.m_inv[k];
-            let state = |p: usize| (sl[p] < NS).then_some(sl[p]);
+            // The kept states' positions in the block.
+            let state = |p: usize| (sl[p] >= 1 && sl[p] < NS).then_some(sl[p]);
+            // ν's row over the block: ŵ_k·(x's defect row at k) and, at node
+            // N, x_N's column of D.
+            let mut e = [0.0; NL];
+            for p in 0..b {
+                e[p] = if k < n {
+                    self.x.null[k] * kkt.b[k][slot::X][sl[p]]
+                } else if sl[p] == slot::X {
+                    self.x.null_d_last
+                } else {
+                    0.0
+                };
+            }
             let mut u = [0.0; NL];
+            let mut me = [0.0; NL];
             for p in 0..b {
                 u[p] = (0..b).map(|q| m[p][q] * kkt.h_t[k][sl[q]]).sum();
+                me[p] = (0..b).map(|q| m[p][q] * e[q]).sum();
                 a -= kkt.h_t[k][sl[p]] * u[p];
+                g[nu] -= e[p] * u[p];
+                s_nunu += e[p] * me[p];
             }
+            self.e[k] = e;
+            self.me[k] = me;
             // Column k of D, dense (zeros off an hp mesh's blocks), so that
             // each write below is one contiguous, vectorizable run over i.
             let d_col = &self.d[k * n..(k + 1) * n];
@@ -720,9 +906,12 @@ impl KktSolver {
                 for (gi, d) in g[sm(c, 0)..sm(c, 0) + n].iter_mut().zip(d_col) {
                     *gi -= d * u[p];
                 }
+                for (si, d) in self.s_nu[sm(c, 0)..sm(c, 0) + n].iter_mut().zip(d_col) {
+                    *si += d * me[p];
+                }
                 for q in 0..b {
                     let Some(c2) = state(q) else { continue };
-                    let base = (c2 * nn + k) * dim + sm(c, 0);
+                    let base = ((c2 - 1) * nn + k) * pdim + sm(c, 0);
                     let mpq = m[p][q];
                     for (x, d) in self.p[base..base + n].iter_mut().zip(d_col) {
                         *x = d * mpq;
@@ -735,7 +924,7 @@ impl KktSolver {
             let bk = &kkt.b[k];
             let mut gm = [[0.0; NS]; NL];
             for p in 0..b {
-                for row in 0..NS {
+                for row in 1..NS {
                     gm[p][row] = (0..b).map(|q| m[p][q] * bk[row][sl[q]]).sum();
                 }
             }
@@ -746,27 +935,28 @@ impl KktSolver {
                 }
             }
             let mut tm = [[0.0; NS]; NS];
-            for c in 0..NS {
-                for c2 in 0..NS {
+            for c in 1..NS {
+                for c2 in 1..NS {
                     tm[c][c2] = (0..b).map(|p| bk[c][sl[p]] * gm[p][c2]).sum();
                 }
                 g[sm(c, k)] -= (0..b).map(|p| bk[c][sl[p]] * u[p]).sum::<f64>();
+                self.s_nu[sm(c, k)] += (0..b).map(|p| bk[c][sl[p]] * me[p]).sum::<f64>();
             }
             self.cross[k] = (rm, tm);
         }
-        // −S = −Σ_k (d_k d_kᵀ) ⊗ Q_k by eight products, into R's leading
+        // −S = −Σ_k (d_k d_kᵀ) ⊗ Q_k by seven products, into R's leading
         // block; only the blocks on and below the diagonal (c ≥ c2) are
         // formed, since the factorization reads the lower triangle alone.
         {
             let mut r = MatMut::from_column_major_slice_mut(&mut self.reduced.a[..rd * rd], rd, rd);
-            let pm = MatRef::from_column_major_slice(&self.p, dim, NS * nn);
+            let pm = MatRef::from_column_major_slice(&self.p, pdim, NR * nn);
             let d = MatRef::from_column_major_slice(&self.d, n, nn);
-            for c2 in 0..NS {
-                let rows = c2 * n;
+            for c2 in 1..NS {
+                let rows = sm(c2, 0);
                 matmul(
-                    r.rb_mut().submatrix_mut(rows, c2 * n, dim - rows, n),
+                    r.rb_mut().submatrix_mut(rows, rows, pdim - rows, n),
                     Accum::Replace,
-                    pm.subcols(c2 * nn, nn).subrows(rows, dim - rows),
+                    pm.subcols((c2 - 1) * nn, nn).subrows(rows, pdim - rows),
                     d.transpose(),
                     -1.0,
                     Par::Seq,
@@ -786,14 +976,14 @@ impl KktSolver {
         // The cross terms of block (c, c2), column j, row i:
         // D_ij R_j[c][c2] + D_ji R_i[c2][c], and T_j on the diagonal blocks.
         // Every operand and write runs contiguously in i.
-        for c2 in 0..NS {
+        for c2 in 1..NS {
             for j in 0..n {
                 let base = sm(c2, j) * rd;
                 let (rj, tj) = &self.cross[j];
                 let d_col = &self.d[j * n..(j + 1) * n];
                 let d_row = &self.d_rows[j * nn..j * nn + n];
                 for c in c2..NS {
-                    let col = &mut r[base + c * n..base + (c + 1) * n];
+                    let col = &mut r[base + sm(c, 0)..base + sm(c, 0) + n];
                     let a_j = rj[c][c2];
                     let rt = &self.rt[(c2 * NS + c) * n..(c2 * NS + c + 1) * n];
                     for (((x, dc), dr), t) in col.iter_mut().zip(d_col).zip(d_row).zip(rt) {
@@ -803,7 +993,12 @@ impl KktSolver {
                 }
             }
         }
-        // R = [−S g; gᵀ a] (lower triangle).
+        // R = [−S g; gᵀ a] (lower triangle), ν's row last among the
+        // multipliers.
+        for c in 0..pdim {
+            r[c * rd + nu] = -self.s_nu[c];
+        }
+        r[nu * rd + nu] = -s_nunu;
         for c in 0..dim {
             r[c * rd + c] -= kkt.delta_c;
             r[c * rd + dim] = g[c];
@@ -812,8 +1007,8 @@ impl KktSolver {
         self.rhs = g;
     }
 
-    /// Set the largest growth of R's unpivoted LDLᵀ that is kept (0: always
-    /// Bunch–Kaufman).
+    /// Set the largest growth of an unpivoted LDLᵀ that is kept, of R and of
+    /// the node blocks (0: always Bunch–Kaufman).
     pub fn set_growth_max(&mut self, growth_max: f64) {
         self.growth_max = growth_max;
     }
@@ -835,31 +1030,79 @@ impl KktSolver {
         x_l: &mut [f64],
     ) {
         let n = self.n;
+        let nn = n + 1;
         let dim = self.dim();
+        let nu = dim - 1;
         let tf = nlp.tf_idx();
-        // ỹ = M r_y, r̃_t = r_t − h_tᵀ ỹ, r̃_λ = r_λ − J_y ỹ.
-        let mut rt = r_w[tf];
+        let sm = |c: usize, i: usize| (c - 1) * n + i;
+        // x: q = A⁺ᵀ r_x, λ_x's part in range(A); B̃ᵀq leaves the right-hand side.
+        for (e, &k) in self.x.nodes.iter().enumerate() {
+            self.xe[e] = r_w[nlp.idx(k, slot::X)];
+        }
+        self.x.pinv_t_mul(&self.xe, &mut self.xq);
+        let q = &self.xq;
+        let mut rt = r_w[tf] - (0..n).map(|i| kkt.j_t[i][slot::X] * q[i]).sum::<f64>();
+        // Per node: r_k (less B̃ᵀq), ỹ = M r_k, r̃_t = r_t − h_tᵀ ỹ, and ỹ by state.
         for k in 0..=n {
             let sl = &self.slots[k];
+            let mut r = [0.0; NL];
+            for (p, &s) in sl.iter().enumerate() {
+                r[p] = r_w[nlp.idx(k, s)]
+                    - if k < n {
+                        kkt.b[k][slot::X][s] * q[k]
+                    } else if s == slot::X {
+                        let d_col = &self.d[n * n..nn * n];
+                        d_col.iter().zip(q).map(|(d, q)| d * q).sum::<f64>()
+                    } else {
+                        0.0
+                    };
+            }
             let m = &self.m_inv[k];
             let mut y = [0.0; NL];
             for p in 0..sl.len() {
-                y[p] = (0..sl.len())
-                    .map(|q| m[p][q] * r_w[nlp.idx(k, sl[q])])
-                    .sum();
+                y[p] = (0..sl.len()).map(|q| m[p][q] * r[q]).sum();
                 rt -= kkt.h_t[k][sl[p]] * y[p];
             }
+            for c in 1..NS {
+                let p = self.pos[k][c];
+                self.by_state[(c - 1) * nn + k] = if p == usize::MAX { 0.0 } else { y[p] };
+            }
+            self.r_tmp[k] = r;
             self.y_tmp[k] = y;
         }
-        let mut pm = std::mem::take(&mut self.pm);
-        pm.copy_from_slice(r_l);
-        self.sub_jy(nlp, kkt, &mut pm);
+        // R's right-hand side: r_λ − J ỹ over the kept rows, ŵᵀr_λx − eᵀỹ, r̃_t.
         let mut rl = std::mem::take(&mut self.rhs);
         for i in 0..n {
-            for c in 0..NS {
-                rl[c * n + i] = pm[i * NS + c];
+            for c in 1..NS {
+                let y = &self.y_tmp[i];
+                let sl = &self.slots[i];
+                rl[sm(c, i)] = r_l[i * NS + c]
+                    - (0..sl.len())
+                        .map(|p| kkt.b[i][c][sl[p]] * y[p])
+                        .sum::<f64>();
             }
         }
+        for c in 1..NS {
+            // r −= D ỹ_c, one contiguous axpy per node.
+            let yc = &self.by_state[(c - 1) * nn..c * nn];
+            let out = &mut rl[sm(c, 0)..sm(c, 0) + n];
+            for (k, &yk) in yc.iter().enumerate() {
+                if yk != 0.0 {
+                    for (o, d) in out.iter_mut().zip(&self.d[k * n..(k + 1) * n]) {
+                        *o -= d * yk;
+                    }
+                }
+            }
+        }
+        rl[nu] = (0..n)
+            .map(|i| self.x.null[i] * r_l[i * NS + slot::X])
+            .sum::<f64>()
+            - (0..=n)
+                .map(|k| {
+                    let (e, y) = (&self.e[k], &self.y_tmp[k]);
+                    (0..self.slots[k].len()).map(|p| e[p] * y[p]).sum::<f64>()
+                })
+                .sum::<f64>();
         rl[dim] = rt;
         match self.path {
             ReducedPath::Unpivoted => {
@@ -868,63 +1111,58 @@ impl KktSolver {
             ReducedPath::BunchKaufman => self.reduced.solve(dim + 1, &mut rl, 1),
         }
         let t = rl[dim];
-        for i in 0..n {
-            for c in 0..NS {
-                x_l[i * NS + c] = rl[c * n + i];
-            }
-        }
-        self.rhs = rl;
-        self.pm = pm;
-        // y_k = M_k (r_y − h_t t − J_kᵀ λ).
+        let nu_v = rl[nu];
+        // y_k = M_k (r_k − h_t t − J_kᵀ λ − e_k ν), with J_kᵀλ's D part as
+        // one contiguous dot product per kept state.
         x_w.iter_mut().for_each(|v| *v = 0.0);
         x_w[tf] = t;
         for k in 0..=n {
             let sl = &self.slots[k];
-            let mut r = [0.0; NL];
+            let mut r = self.r_tmp[k];
+            let d_col = &self.d[k * n..(k + 1) * n];
             for (p, &s) in sl.iter().enumerate() {
-                r[p] = r_w[nlp.idx(k, s)] - kkt.h_t[k][s] * t;
-            }
-            for &(i, d) in &nlp.d_cols[k] {
-                for (p, &s) in sl.iter().enumerate() {
-                    if s < NS {
-                        r[p] -= d * x_l[i * NS + s];
-                    }
+                r[p] -= kkt.h_t[k][s] * t + self.e[k][p] * nu_v;
+                if (1..NS).contains(&s) {
+                    let lam = &rl[sm(s, 0)..sm(s, 0) + n];
+                    r[p] -= d_col.iter().zip(lam).map(|(d, l)| d * l).sum::<f64>();
                 }
-            }
-            if k < n {
-                for (p, &s) in sl.iter().enumerate() {
-                    r[p] -= (0..NS)
-                        .map(|c| kkt.b[k][c][s] * x_l[k * NS + c])
-                        .sum::<f64>();
+                if k < n {
+                    r[p] -= (1..NS).map(|c| kkt.b[k][c][s] * rl[sm(c, k)]).sum::<f64>();
                 }
             }
             let m = &self.m_inv[k];
-            for (p, &s) in sl.iter().enumerate() {
-                x_w[nlp.idx(k, s)] = (0..sl.len()).map(|q| m[p][q] * r[q]).sum();
+            let mut y = [0.0; NL];
+            for p in 0..sl.len() {
+                y[p] = (0..sl.len()).map(|q| m[p][q] * r[q]).sum();
+                x_w[nlp.idx(k, sl[p])] = y[p];
+            }
+            self.y_tmp[k] = y;
+        }
+        for i in 0..n {
+            for c in 1..NS {
+                x_l[i * NS + c] = rl[sm(c, i)];
             }
         }
-    }
-
-    /// r ← r − J_y ỹ (ỹ in `y_tmp`, compressed per node).
-    fn sub_jy(&self, nlp: &Nlp, kkt: &KktMatrix, r: &mut [f64]) {
-        for k in 0..=self.n {
-            let sl = &self.slots[k];
-            let y = &self.y_tmp[k];
-            for &(i, d) in &nlp.d_cols[k] {
-                for (p, &s) in sl.iter().enumerate() {
-                    if s < NS {
-                        r[i * NS + s] -= d * y[p];
-                    }
-                }
-            }
-            if k < self.n {
-                for c in 0..NS {
-                    r[k * NS + c] -= (0..sl.len())
-                        .map(|p| kkt.b[k][c][sl[p]] * y[p])
-                        .sum::<f64>();
-                }
-            }
+        // x: Δx = A⁺(r_λx − B̃y + δ_c q) and λ_x = q + ŵν.
+        let x_n = if self.pos[n][slot::X] == usize::MAX {
+            0.0
+        } else {
+            self.y_tmp[n][self.pos[n][slot::X]]
+        };
+        for i in 0..n {
+            let sl = &self.slots[i];
+            let y = &self.y_tmp[i];
+            let by: f64 = (0..sl.len()).map(|p| kkt.b[i][slot::X][sl[p]] * y[p]).sum();
+            self.xv[i] =
+                r_l[i * NS + slot::X] - by - self.d[n * n + i] * x_n - kkt.j_t[i][slot::X] * t
+                    + kkt.delta_c * self.xq[i];
+            x_l[i * NS + slot::X] = self.xq[i] + self.x.null[i] * nu_v;
         }
+        self.x.pinv_mul(&self.xv, &mut self.xe);
+        for (e, &k) in self.x.nodes.iter().enumerate() {
+            x_w[nlp.idx(k, slot::X)] = self.xe[e];
+        }
+        self.rhs = rl;
     }
 }
 
@@ -961,7 +1199,20 @@ mod tests {
         for j in &mut k.j_t {
             *j = std::array::from_fn(|_| rng.gen_range(-1.0..1.0));
         }
-        k.delta_c = 1e-9;
+        // x enters P2 linearly, through its own defects alone: no Hessian,
+        // no t̂_f cross term, no other defect depends on it (x_N, when free,
+        // keeps its Hessian: the soft terminal term's).
+        for node in 0..nlp.n {
+            for r in 0..NL {
+                k.w[node][slot::X][r] = 0.0;
+                k.w[node][r][slot::X] = 0.0;
+            }
+            k.h_t[node][slot::X] = 0.0;
+            for c in 0..NS {
+                k.b[node][c][slot::X] = 0.0;
+            }
+        }
+        k.delta_c = if definite { 1e-2 } else { 1e-9 };
         k
     }
 
@@ -970,20 +1221,25 @@ mod tests {
     #[test]
     fn structured_solve_matches_a_dense_solve() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
+        // (N, intervals, definite node blocks and δ_c = 1e-2, x_N free).
         let cases = [
-            (6, 1, false),
-            (9, 3, false),
-            (6, 1, true),
-            (9, 3, true),
-            (20, 1, false),
+            (6, 1, false, false),
+            (9, 3, false, false),
+            (6, 1, true, false),
+            (9, 3, true, true),
+            (7, 1, false, true),
+            (20, 1, false, false),
         ];
-        for ((nodes, intervals, definite), path) in cases
+        for ((nodes, intervals, definite, soft), path) in cases
             .into_iter()
             .flat_map(|c| [(c, ReducedPath::Unpivoted), (c, ReducedPath::BunchKaufman)])
         {
             let mut s = Scenario::paper();
             s.discretization.nodes = nodes;
             s.discretization.intervals = intervals;
+            if soft {
+                s.solver.terminal_lateral_weight = 1.0;
+            }
             let nlp = Nlp::new(&s);
             let kkt = random_system(&nlp, &mut rng, definite);
             let mut solver = KktSolver::new(&nlp);
@@ -1051,6 +1307,43 @@ mod tests {
         }
     }
 
+    /// x's elimination: ŵ is the mesh's quadrature weights, normalized (the
+    /// left null vector of D without x_0's and x_N's columns), and A⁺A = I,
+    /// on the global mesh and on an hp mesh.
+    #[test]
+    fn x_elimination_uses_the_quadrature_weights() {
+        for (nodes, intervals) in [(20, 1), (12, 4), (60, 1)] {
+            let mut s = Scenario::paper();
+            s.discretization.nodes = nodes;
+            s.discretization.intervals = intervals;
+            let nlp = Nlp::new(&s);
+            let solver = KktSolver::new(&nlp);
+            let x = &solver.x;
+            let n = nlp.n;
+            assert_eq!(x.nodes, (1..n).collect::<Vec<_>>());
+            let norm = nlp.mesh.weights.iter().map(|w| w * w).sum::<f64>().sqrt();
+            for i in 0..n {
+                let want = nlp.mesh.weights[i] / norm;
+                assert!(
+                    (x.null[i] - want).abs() < 1e-12,
+                    "{nodes}/{intervals}: ŵ_{i}"
+                );
+            }
+            for (e, &k) in x.nodes.iter().enumerate() {
+                for (f, &k2) in x.nodes.iter().enumerate() {
+                    let pa: f64 = (0..n)
+                        .map(|i| x.pinv[e * n + i] * solver.d[k2 * n + i])
+                        .sum();
+                    let want = if k == k2 { 1.0 } else { 0.0 };
+                    assert!(
+                        (pa - want).abs() < 1e-10,
+                        "{nodes}/{intervals}: (A⁺A)_{e}{f}"
+                    );
+                }
+            }
+        }
+    }
+
     /// The unpivoted LDLᵀ declines a zero pivot and a large growth, and
     /// counts the inertia of what it keeps.
     #[test]
@@ -1087,10 +1380,13 @@ mod tests {
         w[3][4] = 1.0;
         w[4][3] = 1.0;
         w[6][6] = -0.5;
+        // Node 2's block: its nine free slots but x (eliminated).
+        assert_eq!(solver.node_size(2), 9);
+        assert!(solver.eliminates(2, slot::X));
         let i = solver.factor_node(2, &w, 0.0);
-        assert_eq!((i.positive, i.negative, i.zero), (8, 2, 0));
+        assert_eq!((i.positive, i.negative, i.zero), (7, 2, 0));
         let i = solver.factor_node(2, &w, 1.5);
-        assert_eq!((i.positive, i.negative, i.zero), (10, 0, 0));
+        assert_eq!((i.positive, i.negative, i.zero), (9, 0, 0));
         w[6][6] = 0.0;
         assert_eq!(solver.factor_node(2, &w, 0.0).zero, 1);
     }
