@@ -6,8 +6,11 @@
 //! The matrix is the Newton system at the 5th iterate of a cold direct solve
 //! of the paper's case: the Hessian of the Lagrangian, the barrier terms
 //! μ/s² (μ = 0.1, the iterate's barrier) and the defect Jacobian.
-//! - `kkt/structured`: our factorization (node blocks, then the reduced
-//!   system by faer's dense Bunch–Kaufman) and one solve;
+//! - `kkt/structured`: our factorization (x_1 … x_{N−1} and their defects
+//!   eliminated, the node blocks, then the dense (7N + 2)-square reduced
+//!   system by faer's unpivoted LDLᵀ, Bunch–Kaufman as fallback) and one
+//!   solve. It does not read x's rows of W, which the elimination needs to be
+//!   zero: here they hold the static 1e-9 that QDLDL's matrix keeps;
 //! - `kkt/qdldl`: Clarabel's QDLDL, numeric refactorization (its symbolic
 //!   AMD analysis done once, outside the loop) and one solve, of the same
 //!   matrix's upper triangle. QDLDL does not pivot: on this indefinite
@@ -122,7 +125,7 @@ fn kkt_solve(c: &mut Criterion) {
             "N = {n}: K is {dim} square, {} stored nonzeros; QDLDL's L has {} nonzeros; reduced system {} square (dense)",
             k.nnz(),
             ldl.nnzL(),
-            nlp.n_con() + 1
+            7 * nlp.n + 2
         );
     }
     g.finish();
