@@ -56,7 +56,7 @@ use faer::perm::PermRef;
 use faer::reborrow::ReborrowMut;
 use faer::{Accum, ColMut, ColRef, MatMut, MatRef, Par};
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 
 use crate::nlp::{slot, Nlp, NL, NS};
 
@@ -199,7 +199,11 @@ impl KktMatrix {
                     acc += d * masked(col);
                     y_w[col] += d * li[c];
                 }
-                acc += self.b[i][c].iter().zip(&xi).map(|(b, x)| b * x).sum::<f64>();
+                acc += self.b[i][c]
+                    .iter()
+                    .zip(&xi)
+                    .map(|(b, x)| b * x)
+                    .sum::<f64>();
                 y_l[i * NS + c] = acc;
                 y_t += self.j_t[i][c] * li[c];
             }
@@ -583,17 +587,14 @@ impl XElimination {
         let pinv = r
             .solve_upper_triangular(&q.transpose())
             .expect("A has full column rank: D without x_0's column is nonsingular");
-        // ŵ: the unit vector orthogonal to Q₁, from the basis vector it
-        // leaves most of.
-        let mut best = DVector::zeros(n);
-        for j in 0..n {
-            let mut v = DVector::zeros(n);
-            v[j] = 1.0;
-            let v = &v - &q * (q.transpose() * &v);
-            if v.norm() > best.norm() {
-                best = v;
-            }
-        }
+        // ŵ: the unit vector orthogonal to Q₁, from the basis vector e_j it
+        // leaves most of: (I − Q₁Q₁ᵀ)e_j, whose squared norm is 1 − (Q₁Q₁ᵀ)_jj.
+        let proj = &q * q.transpose();
+        let j = (0..n)
+            .max_by(|&a, &b| proj[(b, b)].total_cmp(&proj[(a, a)]))
+            .expect("N ≥ 1");
+        let mut best = -proj.column(j);
+        best[j] += 1.0;
         // The sign is free; the weights' (positive) one reads best.
         let null = best.normalize() * best.sum().signum();
         let null_d_last = (0..n).map(|i| null[i] * d[n * n + i]).sum();
