@@ -21,7 +21,7 @@ use crate::error::InputError;
 use crate::mesh::Mesh;
 use crate::nlp::Nlp;
 use crate::propagate::{Interpolant, Interpolation};
-use crate::scenario::{Formulation, InitialState, Method, Scenario};
+use crate::scenario::{Formulation, InitialState, Method, Scenario, SolverSettings};
 use crate::scvx::{self, Observer};
 use crate::solution::Solution;
 use crate::transcription::{Trajectory, Transcription};
@@ -189,8 +189,7 @@ pub struct Planner {
     /// Interior-point iteration budget of a direct re-plan (its deadline).
     pub direct_max_iterations: usize,
     /// One conic solver per subproblem structure (relaxed, exact).
-    conic_relaxed: ConicSolver,
-    conic: ConicSolver,
+    conics: (ConicSolver, ConicSolver),
 }
 
 impl Planner {
@@ -203,8 +202,7 @@ impl Planner {
             warm_relaxed_iterations: 0,
             warm_proximal_weight: WARM_PROXIMAL_WEIGHT,
             direct_max_iterations: DIRECT_REPLAN_ITERATIONS,
-            conic_relaxed: ConicSolver::new(),
-            conic: ConicSolver::new(),
+            conics: (ConicSolver::new(), ConicSolver::new()),
         }
     }
 
@@ -263,49 +261,18 @@ impl Planner {
             let sol = self.direct_replan(s, plan, elapsed_s, observer);
             return Ok(self.adopt(sol));
         }
-        // Optionally the paper's relaxation first, kept only if it passes every
-        // physical check; then the exact form from the same reference.
-        // `s.solver.max_iterations` bounds both phases together.
+        // SCvx's relaxed-then-exact phases from the shifted plan, each with
+        // the warm trust region; `s.solver.max_iterations` bounds both.
         s.solver.proximal_weight = self.warm_proximal_weight;
-        let mut first = None;
-        if s.solver.formulation == Formulation::Exact && self.warm_relaxed_iterations > 0 {
-            let mut relaxed = s.clone();
-            relaxed.solver.formulation = Formulation::Paper;
-            relaxed.solver.max_iterations =
-                self.warm_relaxed_iterations.min(s.solver.max_iterations);
-            let tr = Transcription::new(&relaxed).without_ground_bound();
-            let guess = shifted_reference(plan, elapsed_s, &tr);
-            let mut settings = relaxed.solver.clone();
-            settings.trust_region_initial = WARM_TRUST_REGION;
-            first = Some(scvx::solve_from_with(
-                &tr,
-                guess,
-                &settings,
-                observer,
-                &mut self.conic_relaxed,
-            ));
-        }
-        let sol = match first {
-            Some(first)
-                if first.status == crate::Status::Solved
-                    || first.iterations >= s.solver.max_iterations =>
-            {
-                first
-            }
-            first => {
-                let tr = Transcription::new(&s);
-                let guess = shifted_reference(plan, elapsed_s, &tr);
-                let mut settings = s.solver.clone();
-                settings.trust_region_initial = WARM_TRUST_REGION;
-                let spent = first.as_ref().map_or(0, |f| f.iterations);
-                settings.max_iterations -= spent;
-                let sol = scvx::solve_from_with(&tr, guess, &settings, observer, &mut self.conic);
-                match first {
-                    Some(first) => scvx::append_phase(first, sol),
-                    None => sol,
-                }
-            }
+        let warm =
+            |settings: &mut SolverSettings| settings.trust_region_initial = WARM_TRUST_REGION;
+        let phases = scvx::Phases {
+            relaxed_iterations: self.warm_relaxed_iterations,
+            relaxed_tuning: warm,
+            exact_tuning: warm,
         };
+        let reference = |tr: &Transcription| shifted_reference(plan, elapsed_s, tr);
+        let sol = phases.solve(&s, &reference, &mut self.conics, observer);
         Ok(self.adopt(sol))
     }
 }

@@ -202,52 +202,92 @@ fn infeasibility_reason(tr: &Transcription, t: &Trajectory, vc: f64) -> String {
     reason
 }
 
-/// Solve a scenario from the straight-line guess (Section 3.4).
-///
-/// With the exact formulation and `relaxed_first_iterations` K > 0 (the
-/// default), the paper's relaxation is tried first for at most K iterations:
-/// its translational dynamics are linear in (Txm, Tzm), so from a reasonable
-/// guess it converges in 5–8 iterations where the exact form needs 16–25. Its
-/// answer is kept only if it passes every physical check (relaxation gap,
-/// thrust along the nozzle, defects, virtual control) — it is then a solution
-/// of the exact problem too. Otherwise the exact formulation is solved from the
-/// straight line, and the iterations spent are counted in the history.
+/// Solve a scenario from the straight-line guess (Section 3.4), in
+/// [`Phases`]: with the exact formulation and `relaxed_first_iterations`
+/// K > 0 (the default), the paper's relaxation first, whose translational
+/// dynamics are linear in (Txm, Tzm), so that from a reasonable guess it
+/// converges in 5–8 iterations where the exact form needs 16–25.
 pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
     let d = &scenario.discretization;
-    let budget = scenario.solver.relaxed_first_iterations;
-    let mut spent: Option<Solution> = None;
-    if scenario.solver.formulation == Formulation::Exact && budget > 0 {
-        let mut relaxed = scenario.clone();
-        relaxed.solver.formulation = Formulation::Paper;
-        relaxed.solver.max_iterations = budget.min(scenario.solver.max_iterations);
+    let phases = Phases {
+        relaxed_iterations: scenario.solver.relaxed_first_iterations,
         // Measured with examples/convergence: the relaxed phase does best with
         // a trust region that grows readily. (The exact phase uses the
         // scenario's ρ1, ρ2, chosen with the second-order correction on.)
-        relaxed.solver.rho1 = RELAXED_RHO1;
-        relaxed.solver.rho2 = RELAXED_RHO2;
-        relaxed.solver.grow = RELAXED_GROW;
-        relaxed.solver.shrink = RELAXED_SHRINK;
-        relaxed.solver.trust_region_initial = RELAXED_TRUST_REGION_INITIAL;
-        // Without the ground bound: it bends the relaxed iteration's path
-        // although it is inactive at the optimum; the answer is still checked.
-        let tr = Transcription::new(&relaxed).without_ground_bound();
-        let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
-        let first = solve_from(&tr, guess, &relaxed.solver, observer);
-        if first.status == Status::Solved || first.iterations >= scenario.solver.max_iterations {
-            return first;
+        relaxed_tuning: |s: &mut SolverSettings| {
+            s.rho1 = RELAXED_RHO1;
+            s.rho2 = RELAXED_RHO2;
+            s.grow = RELAXED_GROW;
+            s.shrink = RELAXED_SHRINK;
+            s.trust_region_initial = RELAXED_TRUST_REGION_INITIAL;
+        },
+        exact_tuning: |_: &mut SolverSettings| {},
+    };
+    let guess = |tr: &Transcription| straight_line(tr, d.tf_guess_s, d.final_mass_guess_kg);
+    let mut conics = (ConicSolver::new(), ConicSolver::new());
+    phases.solve(scenario, &guess, &mut conics, observer)
+}
+
+/// SCvx's relaxed-then-exact strategy, shared by cold solves ([`solve`]) and
+/// re-plans ([`crate::replan::Planner`]), which differ only in these fields
+/// and in their reference trajectory.
+///
+/// With the exact formulation and `relaxed_iterations` K > 0, the paper's
+/// relaxation is tried first for at most K iterations (without the ground
+/// bound, which bends its path although it is inactive at the optimum); its
+/// answer is kept only if it passes every physical check, being then a
+/// solution of the exact problem too. Otherwise the exact formulation is
+/// solved from the same kind of reference, within what is left of
+/// `solver.max_iterations`, and the first phase's iterations are counted in
+/// the history.
+pub struct Phases<R: Fn(&mut SolverSettings), E: Fn(&mut SolverSettings)> {
+    pub relaxed_iterations: usize,
+    /// Changes to the scenario's settings in each phase.
+    pub relaxed_tuning: R,
+    pub exact_tuning: E,
+}
+
+impl<R: Fn(&mut SolverSettings), E: Fn(&mut SolverSettings)> Phases<R, E> {
+    /// Solve `scenario` from `reference(transcription)`, with one conic
+    /// solver per phase (relaxed, exact) kept by the caller.
+    pub fn solve(
+        &self,
+        scenario: &Scenario,
+        reference: &dyn Fn(&Transcription) -> Trajectory,
+        conics: &mut (ConicSolver, ConicSolver),
+        observer: &mut dyn Observer,
+    ) -> Solution {
+        let max_iterations = scenario.solver.max_iterations;
+        let mut spent: Option<Solution> = None;
+        if scenario.solver.formulation == Formulation::Exact && self.relaxed_iterations > 0 {
+            let mut relaxed = scenario.clone();
+            relaxed.solver.formulation = Formulation::Paper;
+            relaxed.solver.max_iterations = self.relaxed_iterations.min(max_iterations);
+            (self.relaxed_tuning)(&mut relaxed.solver);
+            let tr = Transcription::new(&relaxed).without_ground_bound();
+            let first = solve_from_with(
+                &tr,
+                reference(&tr),
+                &relaxed.solver,
+                observer,
+                &mut conics.0,
+            );
+            if first.status == Status::Solved || first.iterations >= max_iterations {
+                return first;
+            }
+            spent = Some(first);
         }
-        spent = Some(first);
-    }
-    let tr = Transcription::new(scenario);
-    let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
-    let mut settings = scenario.solver.clone();
-    if let Some(first) = &spent {
-        settings.max_iterations -= first.iterations;
-    }
-    let sol = solve_from(&tr, guess, &settings, observer);
-    match spent {
-        Some(first) => append_phase(first, sol),
-        None => sol,
+        let tr = Transcription::new(scenario);
+        let mut settings = scenario.solver.clone();
+        (self.exact_tuning)(&mut settings);
+        if let Some(first) = &spent {
+            settings.max_iterations -= first.iterations;
+        }
+        let sol = solve_from_with(&tr, reference(&tr), &settings, observer, &mut conics.1);
+        match spent {
+            Some(first) => append_phase(first, sol),
+            None => sol,
+        }
     }
 }
 
