@@ -7,10 +7,10 @@
 use std::hint::black_box;
 use std::time::Duration;
 
-use bellyflop::conic::ConicSolver;
 use bellyflop::dynamics::linearize;
 use bellyflop::radau::Lgr;
 use bellyflop::replan::{initial_state, Planner};
+use bellyflop::scvx::ConicSolver;
 use bellyflop::scvx::{straight_line, Silent};
 use bellyflop::transcription::Transcription;
 use bellyflop::{Formulation, Scenario};

@@ -23,7 +23,7 @@
 //! - [`campaign`]: Monte Carlo rows (runs.csv) and summary.
 pub mod accuracy;
 pub mod campaign;
-pub mod conic;
+
 pub mod direct;
 pub mod dynamics;
 pub mod error;

@@ -14,7 +14,6 @@
 //! vertices on the singular arcs and the trust region binds for 15–20
 //! iterations ([`WARM_PROXIMAL_WEIGHT`]).
 
-use crate::conic::ConicSolver;
 use crate::direct;
 use crate::dynamics::{self, ix, NU_MAX, NX};
 use crate::error::InputError;
@@ -22,6 +21,7 @@ use crate::mesh::Mesh;
 use crate::nlp::Nlp;
 use crate::propagate::{Interpolant, Interpolation};
 use crate::scenario::{Formulation, InitialState, Method, Scenario, SolverSettings};
+use crate::scvx::ConicSolver;
 use crate::scvx::{self, Observer};
 use crate::solution::Solution;
 use crate::transcription::{Trajectory, Transcription};

@@ -12,7 +12,8 @@
 
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus};
 
-use crate::transcription::{ConicData, Transcription};
+use super::subproblem::{ConicData, SubproblemResult};
+use crate::transcription::Transcription;
 
 /// Clarabel's settings for SCvx subproblems.
 fn settings() -> DefaultSettings<f64> {
@@ -83,9 +84,6 @@ impl std::fmt::Debug for ConicSolver {
 }
 
 /// Convenience for one-off solves: a fresh solver.
-pub fn solve_once(
-    tr: &Transcription,
-    data: &ConicData,
-) -> Result<crate::transcription::SubproblemResult, String> {
+pub fn solve_once(tr: &Transcription, data: &ConicData) -> Result<SubproblemResult, String> {
     tr.solve_with(&mut ConicSolver::new(), data)
 }

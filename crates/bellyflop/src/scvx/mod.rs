@@ -8,11 +8,15 @@
 
 use std::time::Instant;
 
-use crate::conic::ConicSolver;
+pub mod conic;
+mod subproblem;
+
 use crate::dynamics::{ix, NU_MAX, NX};
 use crate::scenario::{Formulation, Scenario, SolverSettings};
 use crate::solution::{self, IterationRecord, Solution, Status};
 use crate::transcription::{Trajectory, Transcription};
+pub use conic::ConicSolver;
+pub use subproblem::{ConicData, SubproblemResult};
 
 /// Receives each iteration as it completes (progress bars, logs, plots).
 pub trait Observer {
