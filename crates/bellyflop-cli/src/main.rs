@@ -172,11 +172,13 @@ fn solve(args: SolveArgs) -> ExitCode {
         v["solve_time_max_ms"] = times_ms[times_ms.len() - 1].into();
     }
     landing::add_to_json(&mut v, &propagation);
+    bellyflop::report::add_mesh_json(&mut v, &scenario, &solution);
     if args.json {
         println!("{v}");
     } else {
         print_summary(&scenario, &solution, &times_ms);
         landing::print_summary(&propagation, solution.final_mass_kg);
+        print_mesh_summary(&v["mesh"]);
     }
     if let Some(dir) = &args.out {
         let propagated = propagation.as_ref().ok();
@@ -262,6 +264,31 @@ impl bellyflop::Observer for Progress {
                 r.ms
             );
         }
+    }
+}
+
+/// The mesh error line of the summary, from the JSON's `mesh` field.
+fn print_mesh_summary(mesh: &serde_json::Value) {
+    match mesh["intervals"].as_array() {
+        Some(intervals) => {
+            let worst = intervals.iter().max_by(|a, b| {
+                let e = |v: &serde_json::Value| v["relative_error"].as_f64().unwrap_or(f64::NAN);
+                e(a).total_cmp(&e(b))
+            });
+            if let Some(w) = worst {
+                println!(
+                    "mesh error    {:.1e} relative (largest on interval {} of {}, in {}; integration of the dynamics with the mesh's controls)",
+                    w["relative_error"].as_f64().unwrap_or(f64::NAN),
+                    w["interval"],
+                    intervals.len(),
+                    w["worst_state"].as_str().unwrap_or("?")
+                );
+            }
+        }
+        None => println!(
+            "mesh error    not estimated: {}",
+            mesh["error"].as_str().unwrap_or("?")
+        ),
     }
 }
 

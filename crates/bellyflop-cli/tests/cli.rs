@@ -42,6 +42,34 @@ fn json_has_the_documented_fields() {
     let m = v["mass_kg"].as_array().unwrap();
     let burnt = m[0].as_f64().unwrap() - m[20].as_f64().unwrap();
     assert!((fuel - burnt).abs() < 1e-6);
+    // The mesh error: one interval on the global mesh, its span [0, t_f].
+    let intervals = v["mesh"]["intervals"].as_array().expect("mesh.intervals");
+    assert_eq!(intervals.len(), 1);
+    let e = intervals[0]["relative_error"].as_f64().unwrap();
+    assert!(e > 0.0 && e < 1e-2, "{e}");
+    assert_eq!(v["mesh"]["max_relative_error"].as_f64().unwrap(), e);
+    assert_eq!(intervals[0]["points"], 20);
+    assert_eq!(intervals[0]["t_start_s"].as_f64().unwrap(), 0.0);
+    assert_eq!(intervals[0]["t_end_s"], v["tf_s"]);
+}
+
+/// On an hp mesh, `mesh` has one entry per interval, contiguous in time.
+#[test]
+fn json_mesh_has_every_interval() {
+    let (code, stdout, _) = bellyflop(&["solve", "--json", "--nodes", "20", "--intervals", "4"]);
+    assert!(code == 0 || code == 9, "solved or inaccurate: {code}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let intervals = v["mesh"]["intervals"].as_array().expect("mesh.intervals");
+    assert_eq!(intervals.len(), 4);
+    for (k, iv) in intervals.iter().enumerate() {
+        assert_eq!(iv["interval"], k);
+        assert_eq!(iv["points"], 5);
+        assert!(iv["relative_error"].as_f64().unwrap() >= 0.0);
+        assert!(iv["worst_state"].is_string());
+        if k > 0 {
+            assert_eq!(iv["t_start_s"], intervals[k - 1]["t_end_s"]);
+        }
+    }
 }
 
 /// `--repeat R` solves R times in one process: the answer of one run, the

@@ -547,7 +547,7 @@ fn solve(
         let start = Instant::now();
         let solution = bellyflop::solve(&s, &mut bellyflop::scvx::Silent);
         let propagation = report::propagate(&s, &solution, interpolation);
-        let v = report::solve_json(&solution, &propagation);
+        let v = report::solve_json(&s, &solution, &propagation);
         (v, start.elapsed().as_secs_f64() * 1e3)
     })?;
     Ok(Solution { value, core_ms })

@@ -32,6 +32,7 @@ pub mod fuzzing;
 pub mod guidance;
 pub mod kkt;
 pub mod mesh;
+pub mod mesh_error;
 pub mod navigation;
 pub mod nlp;
 pub mod propagate;

@@ -64,11 +64,28 @@ pub fn add_landing_json(v: &mut Value, p: &Result<Propagation, IntegrationError>
     v["propagation"] = propagation_json(p);
 }
 
+/// The `mesh` field: the solution's relative error on each interval
+/// ([`crate::mesh_error`]) and the largest, or why it could not be estimated.
+pub fn add_mesh_json(v: &mut Value, scenario: &Scenario, solution: &Solution) {
+    v["mesh"] = match crate::mesh_error::estimate(scenario, solution) {
+        Ok(errors) => json!({
+            "max_relative_error": errors.iter().fold(0.0f64, |m, e| m.max(e.relative_error)),
+            "intervals": errors,
+        }),
+        Err(e) => json!({ "error": e.to_string() }),
+    };
+}
+
 /// The whole `solve --json` object: [`Solution::to_json`] with the landing
-/// precision of `p` added.
-pub fn solve_json(solution: &Solution, p: &Result<Propagation, IntegrationError>) -> Value {
+/// precision of `p` and the mesh error added.
+pub fn solve_json(
+    scenario: &Scenario,
+    solution: &Solution,
+    p: &Result<Propagation, IntegrationError>,
+) -> Value {
     let mut v = solution.to_json();
     add_landing_json(&mut v, p);
+    add_mesh_json(&mut v, scenario, solution);
     v
 }
 

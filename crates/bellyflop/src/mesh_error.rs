@@ -1,0 +1,347 @@
+//! The relative error of a solution on each mesh interval: the estimate that
+//! hp mesh refinement acts on (issue 16; Patterson, Hager & Rao, "A ph mesh
+//! refinement method for optimal control", OCAM 2015, §3).
+//!
+//! On interval k, with its n_k collocation points:
+//! - the solution's state polynomial X(τ) is the degree-n_k interpolant
+//!   through the interval's n_k + 1 nodes;
+//! - X̃(τ) integrates the dynamics (Eq. 1–3, with δ̇ = χ) from X at the
+//!   interval's first node, with the mesh's controls: the degree-(n_k − 1)
+//!   interpolants of T and χ through the collocation points (DOP853,
+//!   tolerance 1e-10);
+//! - they are compared at the n_k + 1 LGR points of one degree higher,
+//!   mapped to the interval, and at its end. The error is relative, as
+//!   GPOPS-II's is:
+//!
+//! ```text
+//! e_k = max over those points and the 8 states i of |X̃_i − X_i| / (1 + max_j |X_i(τ_j)|)
+//! ```
+//!
+//! with the maximum over all the nodes of the trajectory.
+
+use serde::Serialize;
+
+use crate::dynamics::{self, Model};
+use crate::mesh::Mesh;
+use crate::propagate::{Dop853, IntegrationError, Stats};
+use crate::radau::{interpolate, Lgr};
+use crate::scenario::Scenario;
+use crate::solution::Solution;
+
+/// The 8 states of the estimate, in order.
+pub const STATE_NAMES: [&str; 8] = [
+    "x_m",
+    "z_m",
+    "vx_mps",
+    "vz_mps",
+    "theta_rad",
+    "pitch_rate_radps",
+    "mass_kg",
+    "delta_rad",
+];
+
+/// The estimate on one interval.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IntervalError {
+    /// Index of the interval, its collocation points n_k and its span \[s\].
+    pub interval: usize,
+    pub points: usize,
+    pub t_start_s: f64,
+    pub t_end_s: f64,
+    /// e_k (see the module's documentation), and the state where it is largest.
+    pub relative_error: f64,
+    pub worst_state: &'static str,
+}
+
+/// The estimate on every interval of `solution`'s mesh (the uniform mesh of
+/// its `nodes` points over `intervals` intervals), with the vehicle model of
+/// `scenario`.
+pub fn estimate(
+    scenario: &Scenario,
+    solution: &Solution,
+) -> Result<Vec<IntervalError>, IntegrationError> {
+    let s = solution;
+    let n = s.nodes;
+    let states: [&[f64]; 8] = [
+        &s.x_m,
+        &s.z_m,
+        &s.vx_mps,
+        &s.vz_mps,
+        &s.theta_rad,
+        &s.pitch_rate_radps,
+        &s.mass_kg,
+        &s.delta_rad,
+    ];
+    if n < 1
+        || s.intervals < 1
+        || s.intervals > n
+        || states.iter().any(|v| v.len() != n + 1)
+        || s.thrust_n.len() < n
+        || s.gimbal_rate_radps.len() < n
+        || !(s.tf_s.is_finite() && s.tf_s > 0.0)
+    {
+        return Err(IntegrationError::BadSolution(format!(
+            "a mesh error estimate needs N + 1 = {} nodes of every state, N controls and t_f > 0",
+            n + 1
+        )));
+    }
+    let mesh = Mesh::uniform(n, s.intervals);
+    let model = Model::new(&scenario.vehicle, &scenario.environment);
+    let scale: [f64; 8] =
+        std::array::from_fn(|i| 1.0 + states[i].iter().fold(0.0f64, |m, v| m.max(v.abs())));
+    let integrator = Dop853::default();
+    let tf = s.tf_s;
+    let time = |tau: f64| 0.5 * (tau + 1.0) * tf;
+    let mut out = Vec::with_capacity(mesh.intervals.len());
+    for (k, iv) in mesh.intervals.iter().enumerate() {
+        let nodes = &mesh.nodes[iv.start..=iv.start + iv.points];
+        let points = &mesh.nodes[iv.start..iv.start + iv.points];
+        let control = |values: &[f64], tau: f64| {
+            interpolate(
+                points,
+                &iv.lgr.control_bary,
+                &values[iv.start..iv.start + iv.points],
+                tau,
+            )
+        };
+        let state_poly = |i: usize, tau: f64| {
+            interpolate(
+                nodes,
+                &iv.lgr.bary,
+                &states[i][iv.start..=iv.start + iv.points],
+                tau,
+            )
+        };
+        // The points of comparison: one degree higher, and the interval's end.
+        let half = 0.5 * (iv.tau_hi - iv.tau_lo);
+        let check = Lgr::new(iv.points + 1);
+        let taus: Vec<f64> = check
+            .nodes
+            .iter()
+            .map(|&r| iv.tau_lo + half * (r + 1.0))
+            .skip(1) // τ_lo itself: the integration starts there.
+            .collect();
+        let rhs = |t: f64, y: &[f64; 8]| -> [f64; 8] {
+            let tau = 2.0 * t / tf - 1.0;
+            let thrust_n = control(&s.thrust_n, tau);
+            let chi = control(&s.gimbal_rate_radps, tau);
+            let p = [y[0], y[1], y[2], y[3], y[4], y[5], y[6]];
+            let f = dynamics::rhs_physical(&model, &p, thrust_n, y[7]);
+            [f[0], f[1], f[2], f[3], f[4], f[5], f[6], chi]
+        };
+        let mut y: [f64; 8] = std::array::from_fn(|i| states[i][iv.start]);
+        let (mut t, mut h, mut stats) = (time(iv.tau_lo), 0.0, Stats::default());
+        let (mut worst, mut worst_state) = (0.0f64, 0usize);
+        for &tau in &taus {
+            let t1 = time(tau);
+            y = integrator.integrate(rhs, t, y, t1, &mut h, &mut stats, |_, _| {})?;
+            t = t1;
+            for i in 0..8 {
+                let e = (y[i] - state_poly(i, tau)).abs() / scale[i];
+                if e > worst || !e.is_finite() {
+                    worst = e;
+                    worst_state = i;
+                }
+            }
+        }
+        out.push(IntervalError {
+            interval: k,
+            points: iv.points,
+            t_start_s: time(iv.tau_lo),
+            t_end_s: time(iv.tau_hi),
+            relative_error: worst,
+            worst_state: STATE_NAMES[worst_state],
+        });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Scenario;
+
+    /// A trajectory whose controls are linear in time (so that every mesh's
+    /// control polynomials are exact), integrated accurately: the "solution"
+    /// samples it at the mesh's nodes, so its only error is the state
+    /// polynomials' interpolation error.
+    fn exact(n: usize, intervals: usize) -> (Scenario, Solution, Vec<f64>, Vec<[f64; 8]>) {
+        let mut s = Scenario::paper();
+        s.discretization.nodes = n;
+        s.discretization.intervals = intervals;
+        let model = Model::new(&s.vehicle, &s.environment);
+        let tf = 11.5;
+        let thrust = |t: f64| 1.2e6 + 4.0e4 * t;
+        let chi = |t: f64| 0.02 - 0.003 * t;
+        let i = &s.initial;
+        let y0 = [
+            i.x_m,
+            i.z_m,
+            i.vx_mps,
+            i.vz_mps,
+            i.theta_deg.to_radians(),
+            i.pitch_rate_degps.to_radians(),
+            i.mass_kg,
+            i.gimbal_deg.to_radians(),
+        ];
+        let rhs = |t: f64, y: &[f64; 8]| -> [f64; 8] {
+            let p = [y[0], y[1], y[2], y[3], y[4], y[5], y[6]];
+            let f = dynamics::rhs_physical(&model, &p, thrust(t), y[7]);
+            [f[0], f[1], f[2], f[3], f[4], f[5], f[6], chi(t)]
+        };
+        let tight = Dop853 {
+            rtol: 1e-13,
+            atol: 1e-13,
+            ..Dop853::default()
+        };
+        let mesh = Mesh::uniform(n, intervals);
+        let t_nodes: Vec<f64> = (0..=n).map(|k| mesh.time_s(k, tf)).collect();
+        // Dense samples for the independent measure, node times among them.
+        let (mut ts, mut ys) = (vec![0.0], vec![y0]);
+        let (mut y, mut h, mut stats) = (y0, 0.0, Stats::default());
+        for w in t_nodes.windows(2) {
+            for j in 1..=20 {
+                let t1 = w[0] + (w[1] - w[0]) * j as f64 / 20.0;
+                y = tight
+                    .integrate(
+                        rhs,
+                        *ts.last().unwrap(),
+                        y,
+                        t1,
+                        &mut h,
+                        &mut stats,
+                        |_, _| {},
+                    )
+                    .unwrap();
+                ts.push(t1);
+                ys.push(y);
+            }
+        }
+        let at_nodes: Vec<[f64; 8]> = (0..=n).map(|k| ys[20 * k]).collect();
+        let col = |i: usize| at_nodes.iter().map(|y| y[i]).collect::<Vec<f64>>();
+        // A solution of the right shape, its arrays then replaced.
+        let mut sol = crate::solve(&s, &mut crate::scvx::Silent);
+        assert_eq!((sol.nodes, sol.intervals), (n, intervals));
+        sol.tf_s = tf;
+        sol.t_s = t_nodes.clone();
+        sol.x_m = col(0);
+        sol.z_m = col(1);
+        sol.vx_mps = col(2);
+        sol.vz_mps = col(3);
+        sol.theta_rad = col(4);
+        sol.pitch_rate_radps = col(5);
+        sol.mass_kg = col(6);
+        sol.delta_rad = col(7);
+        sol.thrust_n = t_nodes.iter().map(|&t| thrust(t)).collect();
+        sol.gimbal_rate_radps = t_nodes.iter().map(|&t| chi(t)).collect();
+        (s, sol, ts, ys)
+    }
+
+    /// The largest relative interpolation error of the node polynomials on
+    /// each interval, measured on the dense samples: what the estimate
+    /// approximates.
+    fn dense_error(sol: &Solution, ts: &[f64], ys: &[[f64; 8]]) -> Vec<f64> {
+        let mesh = Mesh::uniform(sol.nodes, sol.intervals);
+        let states = [
+            &sol.x_m,
+            &sol.z_m,
+            &sol.vx_mps,
+            &sol.vz_mps,
+            &sol.theta_rad,
+            &sol.pitch_rate_radps,
+            &sol.mass_kg,
+            &sol.delta_rad,
+        ];
+        let mut out = vec![0.0f64; mesh.intervals.len()];
+        for (t, y) in ts.iter().zip(ys) {
+            let tau = 2.0 * t / sol.tf_s - 1.0;
+            let k = mesh.interval_of(tau);
+            for i in 0..8 {
+                let scale = 1.0 + states[i].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                let e = (mesh.interpolate_states(states[i], tau) - y[i]).abs() / scale;
+                out[k] = out[k].max(e);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn estimate_matches_the_interpolation_error_of_a_known_trajectory() {
+        for (n, intervals) in [(6, 1), (8, 2), (12, 4)] {
+            let (s, sol, ts, ys) = exact(n, intervals);
+            let est = estimate(&s, &sol).expect("estimate");
+            let dense = dense_error(&sol, &ts, &ys);
+            assert_eq!(est.len(), intervals);
+            for (e, d) in est.iter().zip(&dense) {
+                assert!(
+                    *d > 1e-9,
+                    "{n}/{intervals}: a coarse mesh has a visible error ({d:e})"
+                );
+                let ratio = e.relative_error / d;
+                assert!(
+                    (0.2..=1.5).contains(&ratio),
+                    "{n}/{intervals} interval {}: estimate {:e} against {d:e}",
+                    e.interval,
+                    e.relative_error
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn estimate_falls_spectrally_with_the_degree() {
+        let worst = |n: usize| {
+            let (s, sol, _, _) = exact(n, 2);
+            estimate(&s, &sol)
+                .expect("estimate")
+                .iter()
+                .fold(0.0f64, |m, e| m.max(e.relative_error))
+        };
+        // Two intervals of 4, 6 and 8 points.
+        let (e8, e12, e16) = (worst(8), worst(12), worst(16));
+        assert!(
+            e12 < 0.2 * e8 && e16 < 0.2 * e12 && e16 < 0.02 * e8,
+            "8 points: {e8:e}, 12: {e12:e}, 16: {e16:e}"
+        );
+    }
+
+    /// A node moved off the trajectory shows in its interval, and only there.
+    #[test]
+    fn a_perturbed_node_flags_its_interval() {
+        let (s, mut sol, _, _) = exact(16, 4);
+        let clean = estimate(&s, &sol).expect("estimate");
+        // Node 9 is interior to interval 2 (nodes 8..=12).
+        sol.z_m[9] += 20.0;
+        let hit = estimate(&s, &sol).expect("estimate");
+        assert_eq!(hit[2].worst_state, "z_m");
+        assert!(
+            hit[2].relative_error > 10.0 * clean[2].relative_error,
+            "{:e} against {:e}",
+            hit[2].relative_error,
+            clean[2].relative_error
+        );
+        for k in [0, 1, 3] {
+            assert_eq!(
+                hit[k].relative_error, clean[k].relative_error,
+                "interval {k}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_solution_without_nodes_is_an_error() {
+        let s = Scenario::paper();
+        let mut sol = crate::solve(&s, &mut crate::scvx::Silent);
+        sol.z_m.pop();
+        assert!(matches!(
+            estimate(&s, &sol),
+            Err(IntegrationError::BadSolution(_))
+        ));
+        sol.z_m.push(0.0);
+        sol.tf_s = f64::NAN;
+        assert!(matches!(
+            estimate(&s, &sol),
+            Err(IntegrationError::BadSolution(_))
+        ));
+    }
+}
