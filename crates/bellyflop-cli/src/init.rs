@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use bellyflop::Scenario;
+use bellyflop::Case;
 use serde_json::Value;
 
 use crate::EXIT_BAD_INPUT;
@@ -28,7 +28,7 @@ pub struct InitArgs {
 /// Run `bellyflop init`: exit 0 on success, 2 (bad input) if FILE exists
 /// (without `--force`) or its directory does not, 1 if it cannot be written.
 pub fn run(args: &InitArgs) -> ExitCode {
-    let text = template(&Scenario::paper());
+    let text = template(&Case::paper());
     let Some(path) = &args.file else {
         print!("{text}");
         return ExitCode::SUCCESS;
@@ -374,8 +374,8 @@ fn entry(out: &mut String, table: &str, key: &str, value: &Value) {
 
 /// The commented TOML text of a scenario: every field, with its unit and
 /// allowed range.
-pub fn template(scenario: &Scenario) -> String {
-    let v = serde_json::to_value(scenario).expect("a Scenario serializes");
+pub fn template(case: &Case) -> String {
+    let v = serde_json::to_value(case).expect("a Case serializes");
     let Value::Object(top) = v else {
         panic!("a Scenario serializes to an object")
     };
@@ -444,22 +444,22 @@ mod tests {
     use super::*;
     use bellyflop::InputError;
 
-    fn with_field(table: &str, key: &str, value: Value) -> Result<Scenario, String> {
-        let mut v = serde_json::to_value(Scenario::paper()).unwrap();
+    fn with_field(table: &str, key: &str, value: Value) -> Result<Case, String> {
+        let mut v = serde_json::to_value(Case::paper()).unwrap();
         let mut t = &mut v;
         for part in table.split('.').filter(|p| !p.is_empty()) {
             t = &mut t[part];
         }
         t[key] = value;
-        serde_json::from_value::<Scenario>(v).map_err(|e| e.to_string())
+        serde_json::from_value::<Case>(v).map_err(|e| e.to_string())
     }
 
     #[test]
     fn template_reads_back_as_the_paper_case() {
-        let text = template(&Scenario::paper());
+        let text = template(&Case::paper());
         assert!(!text.contains("undocumented"), "{text}");
-        let s = Scenario::from_toml_str(&text).expect("the template is valid");
-        assert_eq!(s, Scenario::paper());
+        let s = Case::from_toml_str(&text).expect("the template is valid");
+        assert_eq!(s, Case::paper());
         // Every key is written once, each with its comment above it.
         for d in DOCS {
             let line = format!("\n{} = ", d.key);
@@ -469,7 +469,7 @@ mod tests {
 
     #[test]
     fn every_documented_field_exists() {
-        let v = serde_json::to_value(Scenario::paper()).unwrap();
+        let v = serde_json::to_value(Case::paper()).unwrap();
         for d in DOCS {
             let mut field = &v;
             for part in d.table.split('.').filter(|p| !p.is_empty()) {

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use bellyflop::direct::DirectIteration;
 use bellyflop::solution::IterationRecord;
-use bellyflop::{Formulation, Method, Scenario, Solution};
+use bellyflop::{Case, Formulation, Method, Scenario, Solution, SolverSettings};
 use clap::{Parser, Subcommand, ValueEnum};
 
 mod campaign_plot;
@@ -121,37 +121,42 @@ fn main() -> ExitCode {
     }
 }
 
-fn load(args: &SolveArgs) -> Result<Scenario, bellyflop::InputError> {
-    let mut scenario = match &args.scenario {
-        Some(path) => Scenario::from_file(path)?,
-        None => Scenario::paper(),
+/// The scenario file (the paper's case by default) with the flags' overrides.
+fn load(args: &SolveArgs) -> Result<Case, bellyflop::InputError> {
+    let mut case = match &args.scenario {
+        Some(path) => Case::from_file(path)?,
+        None => Case::paper(),
     };
+    let d = &mut case.scenario.discretization;
     if let Some(n) = args.nodes {
-        scenario.discretization.nodes = n;
+        d.nodes = n;
     }
     if let Some(m) = args.intervals {
-        scenario.discretization.intervals = m;
+        d.intervals = m;
     }
     if let Some(f) = args.formulation {
-        scenario.solver.formulation = match f {
+        case.solver.formulation = match f {
             FormulationArg::Exact => Formulation::Exact,
             FormulationArg::Paper => Formulation::Paper,
             FormulationArg::Vector => Formulation::Vector,
         };
     }
     if let Some(m) = args.method {
-        scenario.solver.method = match m {
+        case.solver.method = match m {
             MethodArg::Scvx => Method::Scvx,
             MethodArg::Direct => Method::Direct,
         };
     }
-    scenario.validate()?;
-    Ok(scenario)
+    case.validate()?;
+    Ok(case)
 }
 
 fn solve(args: SolveArgs) -> ExitCode {
-    let scenario = match load(&args) {
-        Ok(s) => s,
+    let Case {
+        scenario,
+        solver: settings,
+    } = match load(&args) {
+        Ok(c) => c,
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(EXIT_BAD_INPUT);
@@ -162,7 +167,7 @@ fn solve(args: SolveArgs) -> ExitCode {
     }
     let quiet = args.quiet || args.json;
     let mut progress = Progress { quiet };
-    let (solution, times_ms) = solve_repeated(&scenario, &mut progress, args.repeat);
+    let (solution, times_ms) = solve_repeated(&scenario, &settings, &mut progress, args.repeat);
     let propagation = landing::propagate(&scenario, &solution, args.interpolation);
     // One JSON object: printed by --json, and written as solution.json by --out.
     let mut v = solution.to_json();
@@ -176,14 +181,14 @@ fn solve(args: SolveArgs) -> ExitCode {
     if args.json {
         println!("{v}");
     } else {
-        print_summary(&scenario, &solution, &times_ms);
+        print_summary(&scenario, &settings, &solution, &times_ms);
         landing::print_summary(&propagation, solution.final_mass_kg);
         print_mesh_summary(&v["mesh"]);
     }
     if let Some(dir) = &args.out {
         let propagated = propagation.as_ref().ok();
         if let Err(code) =
-            output::write_and_report(dir, &scenario, &solution, &v, propagated, quiet)
+            output::write_and_report(dir, &scenario, &settings, &solution, &v, propagated, quiet)
         {
             return code;
         }
@@ -197,13 +202,14 @@ fn solve(args: SolveArgs) -> ExitCode {
 /// reported on stderr.
 fn solve_repeated(
     scenario: &Scenario,
+    settings: &SolverSettings,
     progress: &mut Progress,
     repeat: u32,
 ) -> (Solution, Vec<f64>) {
-    let mut solution = bellyflop::solve(scenario, progress);
+    let mut solution = bellyflop::solve(scenario, settings, progress);
     let mut times_ms = vec![solution.solve_time_ms];
     for _ in 1..repeat {
-        let again = bellyflop::solve(scenario, &mut Progress { quiet: true });
+        let again = bellyflop::solve(scenario, settings, &mut Progress { quiet: true });
         if again.status != solution.status || again.final_mass_kg != solution.final_mass_kg {
             eprintln!(
                 "warning: a repeated solve differed: {} at {} kg, then {} at {} kg",
@@ -293,7 +299,7 @@ fn print_mesh_summary(mesh: &serde_json::Value) {
 }
 
 /// The human summary; `times_ms` are the sorted solve times of `--repeat`.
-fn print_summary(scenario: &Scenario, s: &Solution, times_ms: &[f64]) {
+fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, times_ms: &[f64]) {
     println!("scenario      {}", scenario.name);
     println!("status        {}", s.status.as_str());
     if !s.message.is_empty() {
@@ -310,7 +316,7 @@ fn print_summary(scenario: &Scenario, s: &Solution, times_ms: &[f64]) {
         ),
         Method::Scvx => println!(
             "formulation   {}, N = {}, {mesh}",
-            s.formulation_label(scenario.solver.formulation),
+            s.formulation_label(settings.formulation),
             s.nodes
         ),
     }

@@ -13,7 +13,7 @@ use std::time::Instant;
 pub use bellyflop::campaign::RunRow;
 use bellyflop::campaign::{fly_row, runs_csv, summary};
 use bellyflop::sim::RunOutcome;
-use bellyflop::Scenario;
+use bellyflop::Case;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde_json::Value;
@@ -205,7 +205,7 @@ fn write(
     dir: &std::path::Path,
     rows: &[RunRow],
     s: &Value,
-    scenario: &Scenario,
+    case: &Case,
 ) -> Result<Vec<PathBuf>, OutputError> {
     let mut files = Vec::new();
     let csv = runs_csv(rows);
@@ -215,6 +215,6 @@ fn write(
     let path = dir.join("summary.json");
     std::fs::write(&path, format!("{s}\n")).map_err(|e| OutputError::io(&path, e))?;
     files.push(path);
-    files.extend(campaign_plot::campaign(dir, rows, &scenario.name)?);
+    files.extend(campaign_plot::campaign(dir, rows, &case.scenario.name)?);
     Ok(files)
 }

@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use bellyflop::propagate::{Interpolant, Propagation};
-use bellyflop::{Scenario, Solution};
+use bellyflop::{Scenario, Solution, SolverSettings};
 
 use crate::plot;
 use crate::sample::{Dense, COLUMNS};
@@ -41,6 +41,7 @@ pub const EXIT_OUTPUT: u8 = 1;
 pub fn write_and_report(
     dir: &Path,
     scenario: &Scenario,
+    settings: &SolverSettings,
     solution: &Solution,
     json: &serde_json::Value,
     propagation: Option<&Propagation>,
@@ -49,7 +50,7 @@ pub fn write_and_report(
     let over = propagation.map(|p| overlay(solution, p));
     report(
         dir,
-        write_all(dir, scenario, solution, json, over.as_ref()),
+        write_all(dir, scenario, settings, solution, json, over.as_ref()),
         quiet,
     )
 }
@@ -127,6 +128,7 @@ pub fn prepare(dir: &Path) -> Result<(), OutputError> {
 pub fn write_all(
     dir: &Path,
     scenario: &Scenario,
+    settings: &SolverSettings,
     solution: &Solution,
     json: &serde_json::Value,
     overlay: Option<&Dense>,
@@ -143,7 +145,7 @@ pub fn write_all(
     std::fs::write(&json_path, format!("{json}\n")).map_err(|e| OutputError::io(&json_path, e))?;
     written.push(json_path);
 
-    let data = plot::PlotData::new(scenario, solution, &dense, overlay);
+    let data = plot::PlotData::new(scenario, settings, solution, &dense, overlay);
     written.extend(plot::render_all(dir, &data)?);
     Ok(written)
 }

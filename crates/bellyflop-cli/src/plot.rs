@@ -16,7 +16,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Once;
 
-use bellyflop::{Scenario, Solution};
+use bellyflop::{Scenario, Solution, SolverSettings};
 use plotters::coord::combinators::IntoLogRange;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -49,6 +49,7 @@ const REJECTED: RGBColor = RGBColor(200, 30, 30);
 /// Everything the plots draw.
 pub struct PlotData<'a> {
     pub scenario: &'a Scenario,
+    pub settings: &'a SolverSettings,
     pub solution: &'a Solution,
     /// The solution's interpolants, densely sampled.
     pub dense: &'a Dense,
@@ -64,6 +65,7 @@ pub struct PlotData<'a> {
 impl<'a> PlotData<'a> {
     pub fn new(
         scenario: &'a Scenario,
+        settings: &'a SolverSettings,
         solution: &'a Solution,
         dense: &'a Dense,
         overlay: Option<&'a Dense>,
@@ -83,6 +85,7 @@ impl<'a> PlotData<'a> {
         }
         PlotData {
             scenario,
+            settings,
             solution,
             dense,
             nodes,
@@ -96,8 +99,7 @@ impl<'a> PlotData<'a> {
             bellyflop::Method::Direct => "direct method".to_string(),
             bellyflop::Method::Scvx => format!(
                 "SCvx, {} formulation",
-                self.solution
-                    .formulation_label(self.scenario.solver.formulation)
+                self.solution.formulation_label(self.settings.formulation)
             ),
         };
         format!(
@@ -1261,7 +1263,7 @@ fn draw_convergence<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, d: &PlotD
 
 /// Virtual control, step, cost and trust radius per SCvx iteration.
 fn scvx_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
-    let sv = &d.scenario.solver;
+    let sv = d.settings;
     let h = &d.solution.history;
     let values = |f: fn(&bellyflop::solution::IterationRecord) -> f64| h.iter().map(f).collect();
     let iterations = Iterations {
@@ -1302,7 +1304,7 @@ fn scvx_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
 /// Primal and dual infeasibility, μ and the step length per interior-point
 /// iteration.
 fn direct_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
-    let tol = d.scenario.solver.direct.tolerance;
+    let tol = d.settings.direct.tolerance;
     let h = &d.solution.direct_history;
     let values = |f: fn(&bellyflop::direct::DirectIteration) -> f64| h.iter().map(f).collect();
     let iterations = Iterations {

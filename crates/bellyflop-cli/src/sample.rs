@@ -194,7 +194,11 @@ mod tests {
     fn solution(n: usize) -> Solution {
         let mut s = Scenario::paper();
         s.discretization.nodes = n;
-        bellyflop::solve(&s, &mut |_: &bellyflop::solution::IterationRecord| {})
+        bellyflop::solve(
+            &s,
+            &Default::default(),
+            &mut |_: &bellyflop::solution::IterationRecord| {},
+        )
     }
 
     #[test]

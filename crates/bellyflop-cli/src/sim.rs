@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use bellyflop::guidance::{end_state, Flight, ReplanOutcome, SimConfig};
 use bellyflop::sim::{Dispersions, Outcome, RunOutcome};
-use bellyflop::Scenario;
+use bellyflop::Case;
 use serde_json::Value;
 
 use crate::output::{self, OutputError};
@@ -57,10 +57,10 @@ pub fn load(
     config: &Option<PathBuf>,
     open_loop: bool,
     no_dispersions: bool,
-) -> Result<(Scenario, SimConfig), bellyflop::InputError> {
+) -> Result<(Case, SimConfig), bellyflop::InputError> {
     let s = match scenario {
-        Some(p) => Scenario::from_file(p)?,
-        None => Scenario::paper(),
+        Some(p) => Case::from_file(p)?,
+        None => Case::paper(),
     };
     let mut c = match config {
         Some(p) => SimConfig::from_file(p)?,
@@ -191,14 +191,21 @@ fn flown(f: &Flight) -> Dense {
 
 fn write(
     dir: &std::path::Path,
-    scenario: &Scenario,
+    case: &Case,
     f: &Flight,
     v: &Value,
 ) -> Result<Vec<PathBuf>, OutputError> {
     let flown = flown(f);
     // The first plan as `solve --out` writes it, with the flight overlaid.
     let plan_json = f.first_plan.to_json();
-    let mut files = output::write_all(dir, scenario, &f.first_plan, &plan_json, Some(&flown))?;
+    let mut files = output::write_all(
+        dir,
+        &case.scenario,
+        &case.solver,
+        &f.first_plan,
+        &plan_json,
+        Some(&flown),
+    )?;
 
     let csv = bellyflop::report::trace_csv(f);
     let path = dir.join("flight.csv");

@@ -59,7 +59,7 @@ pub fn run(args: &SweepArgs) -> ExitCode {
     if !args.json {
         println!(
             "scenario {}, {:?} formulation, landing error by DOP853 re-propagation with {} controls",
-            base.name,
+            base.scenario.name,
             base.solver.formulation,
             bellyflop::propagate::Interpolation::from(args.interpolation).as_str()
         );
@@ -80,8 +80,8 @@ pub fn run(args: &SweepArgs) -> ExitCode {
     let mut runs = Vec::with_capacity(scenarios.len());
     let mut exit = 0u8;
     for s in &scenarios {
-        let sol = bellyflop::solve(s, &mut Silent);
-        let prop = landing::propagate(s, &sol, args.interpolation);
+        let sol = s.solve(&mut Silent);
+        let prop = landing::propagate(&s.scenario, &sol, args.interpolation);
         if sol.status != Status::Solved && exit == 0 {
             exit = sol.status.exit_code() as u8;
         }
@@ -124,7 +124,7 @@ pub fn run(args: &SweepArgs) -> ExitCode {
     }
     if args.json {
         let out: Value = json!({
-            "scenario": base.name,
+            "scenario": base.scenario.name,
             "formulation": base.solver.formulation,
             "interpolation": bellyflop::propagate::Interpolation::from(args.interpolation),
             "runs": runs,

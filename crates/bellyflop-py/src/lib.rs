@@ -12,7 +12,9 @@ use bellyflop::campaign::{self, RunRow};
 use bellyflop::guidance::SimConfig as CoreSimConfig;
 use bellyflop::propagate::Interpolation;
 use bellyflop::sim::RunOutcome;
-use bellyflop::{report, Formulation, Method, Scenario as CoreScenario};
+// The Python `Scenario` is a whole scenario file: the problem and its
+// `[solver]` settings (bellyflop::Case).
+use bellyflop::{report, Case as CoreScenario, Formulation, Method};
 use numpy::PyArray1;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyAttributeError, PyKeyError, PyRuntimeError, PyValueError};
@@ -228,8 +230,8 @@ impl Scenario {
     fn __repr__(&self) -> String {
         format!(
             "<bellyflop.Scenario {:?}, N = {}, {}>",
-            self.inner.name,
-            self.inner.discretization.nodes,
+            self.inner.scenario.name,
+            self.inner.scenario.discretization.nodes,
             self.inner.solver.method.as_str()
         )
     }
@@ -530,10 +532,10 @@ fn solve(
 ) -> PyResult<Solution> {
     let mut s = scenario.inner.clone();
     if let Some(n) = nodes {
-        s.discretization.nodes = n;
+        s.scenario.discretization.nodes = n;
     }
     if let Some(m) = intervals {
-        s.discretization.intervals = m;
+        s.scenario.discretization.intervals = m;
     }
     if let Some(f) = formulation {
         s.solver.formulation = parse_formulation(f)?;
@@ -545,9 +547,9 @@ fn solve(
     s.validate().map_err(input_error)?;
     let (value, core_ms) = detached(py, move || {
         let start = Instant::now();
-        let solution = bellyflop::solve(&s, &mut bellyflop::scvx::Silent);
-        let propagation = report::propagate(&s, &solution, interpolation);
-        let v = report::solve_json(&s, &solution, &propagation);
+        let solution = s.solve(&mut bellyflop::scvx::Silent);
+        let propagation = report::propagate(&s.scenario, &solution, interpolation);
+        let v = report::solve_json(&s.scenario, &solution, &propagation);
         (v, start.elapsed().as_secs_f64() * 1e3)
     })?;
     Ok(Solution { value, core_ms })

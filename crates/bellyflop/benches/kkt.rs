@@ -24,22 +24,22 @@ use bellyflop::direct::{self, lagrangian_blocks, DirectSettings};
 use bellyflop::kkt::{KktMatrix, KktSolver};
 use bellyflop::nlp::{Nlp, NL, NS};
 use bellyflop::scvx::Silent;
-use bellyflop::{Method, Scenario, Status};
+use bellyflop::{Case, Method, Status};
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};
 
-fn paper(n: usize) -> Scenario {
-    let mut s = Scenario::paper();
-    s.discretization.nodes = n;
+fn paper(n: usize) -> Case {
+    let mut s = Case::paper();
+    s.scenario.discretization.nodes = n;
     s
 }
 
 /// The Newton system at the 5th iterate of a cold direct solve.
 fn system(n: usize) -> (Nlp, KktMatrix) {
     let s = paper(n);
-    let nlp = Nlp::new(&s);
-    let d = &s.discretization;
+    let nlp = Nlp::new(&s.scenario, &s.solver);
+    let d = &s.scenario.discretization;
     let w0 = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
     let settings = DirectSettings {
         max_iterations: 5,
@@ -144,7 +144,7 @@ fn cold_solve(c: &mut Criterion) {
             s.solver.method = method;
             g.bench_with_input(BenchmarkId::new(method.as_str(), n), &s, |b, s| {
                 b.iter(|| {
-                    let sol = bellyflop::solve(black_box(s), &mut Silent);
+                    let sol = black_box(s).solve(&mut Silent);
                     assert_eq!(sol.status, Status::Solved, "N = {n}");
                     sol
                 })

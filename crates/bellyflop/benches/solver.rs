@@ -13,15 +13,15 @@ use bellyflop::replan::{initial_state, Planner};
 use bellyflop::scvx::ConicSolver;
 use bellyflop::scvx::{straight_line, Silent};
 use bellyflop::transcription::Transcription;
-use bellyflop::{Formulation, Scenario};
+use bellyflop::{Case, Formulation};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};
 
 /// The paper's case at `n` LGR points.
 /// (SCvx: these benchmarks are of its building blocks; `benches/kkt.rs` has
 /// the direct method.)
-fn paper(n: usize) -> Scenario {
-    let mut s = Scenario::paper();
-    s.discretization.nodes = n;
+fn paper(n: usize) -> Case {
+    let mut s = Case::paper();
+    s.scenario.discretization.nodes = n;
     s.solver.method = bellyflop::Method::Scvx;
     s
 }
@@ -32,8 +32,8 @@ fn paper(n: usize) -> Scenario {
 fn first_subproblem(n: usize) -> (Transcription, bellyflop::transcription::Trajectory, f64) {
     let mut s = paper(n);
     s.solver.formulation = Formulation::Paper;
-    let tr = Transcription::new(&s).without_ground_bound();
-    let d = &s.discretization;
+    let tr = Transcription::new(&s.scenario, &s.solver).without_ground_bound();
+    let d = &s.scenario.discretization;
     let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
     (tr, guess, s.solver.trust_region_initial)
 }
@@ -51,7 +51,7 @@ fn cold_solve(c: &mut Criterion) {
         let s = paper(n);
         g.bench_with_input(BenchmarkId::from_parameter(n), &s, |b, s| {
             b.iter(|| {
-                let sol = bellyflop::solve(black_box(s), &mut Silent);
+                let sol = black_box(s).solve(&mut Silent);
                 assert_eq!(sol.status, bellyflop::Status::Solved, "N = {n}");
                 sol
             })
@@ -71,13 +71,13 @@ fn cold_solve_hp(c: &mut Criterion) {
     g.measurement_time(Duration::from_secs(5));
     for (n, m) in [(20, 4), (40, 8)] {
         let mut s = paper(n);
-        s.discretization.intervals = m;
+        s.scenario.discretization.intervals = m;
         g.bench_with_input(
             BenchmarkId::from_parameter(format!("{n}x{m}")),
             &s,
             |b, s| {
                 b.iter(|| {
-                    let sol = bellyflop::solve(black_box(s), &mut Silent);
+                    let sol = black_box(s).solve(&mut Silent);
                     assert_eq!(sol.status, bellyflop::Status::Solved, "N = {n}, M = {m}");
                     sol
                 })
@@ -97,7 +97,10 @@ fn warm_replan(c: &mut Criterion) {
     g.warm_up_time(Duration::from_secs(1));
     g.measurement_time(Duration::from_secs(5));
     for n in [10, 20, 40] {
-        let mut planner = Planner::new(paper(n));
+        let mut planner = {
+            let c = paper(n);
+            Planner::new(c.scenario, c.solver)
+        };
         // The SCvx warm re-plan (the scenario's default method is direct).
         planner.method = bellyflop::Method::Scvx;
         planner.cold(&mut Silent);
@@ -188,8 +191,8 @@ fn jacobian(c: &mut Criterion) {
     for form in [Formulation::Paper, Formulation::Exact] {
         let mut s = paper(20);
         s.solver.formulation = form;
-        let tr = Transcription::new(&s);
-        let d = &s.discretization;
+        let tr = Transcription::new(&s.scenario, &s.solver);
+        let d = &s.scenario.discretization;
         let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
         let (x, u) = (guess.x[10], guess.u[10]);
         g.bench_function(BenchmarkId::from_parameter(format!("{form:?}")), |b| {

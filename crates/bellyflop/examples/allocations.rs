@@ -15,7 +15,7 @@ use bellyflop::direct::{self, DirectSettings};
 use bellyflop::nlp::Nlp;
 use bellyflop::replan::{initial_state, Planner};
 use bellyflop::scvx::Silent;
-use bellyflop::Scenario;
+use bellyflop::Case;
 
 struct Counting;
 static ALLOCS: AtomicUsize = AtomicUsize::new(0);
@@ -52,11 +52,11 @@ fn count<T>(f: impl FnOnce() -> T) -> (T, usize, usize) {
 fn direct_rows() {
     println!("  N  direct: allocations in a cold solve (its), and per iteration after setup");
     for n in [10, 20, 40] {
-        let mut s = Scenario::paper();
-        s.discretization.nodes = n;
-        let (sol, a, b) = count(|| bellyflop::solve(&s, &mut Silent));
-        let nlp = Nlp::new(&s);
-        let d = &s.discretization;
+        let mut s = Case::paper();
+        s.scenario.discretization.nodes = n;
+        let (sol, a, b) = count(|| bellyflop::solve(&s.scenario, &s.solver, &mut Silent));
+        let nlp = Nlp::new(&s.scenario, &s.solver);
+        let d = &s.scenario.discretization;
         let w0 = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
         let run = |k: usize| {
             let settings = DirectSettings {
@@ -80,10 +80,10 @@ fn main() {
     direct_rows();
     println!("  N  run        its  allocs/it  kB/it");
     for n in [10, 20, 40] {
-        let mut s = Scenario::paper();
-        s.discretization.nodes = n;
+        let mut s = Case::paper();
+        s.scenario.discretization.nodes = n;
         s.solver.method = bellyflop::Method::Scvx;
-        let mut planner = Planner::new(s);
+        let mut planner = Planner::new(s.scenario, s.solver);
         // The SCvx warm re-plan (the scenario's default method is direct).
         planner.method = bellyflop::Method::Scvx;
         let (cold, a, b) = count(|| planner.cold(&mut Silent));

@@ -14,11 +14,11 @@ use std::time::Instant;
 
 use bellyflop::replan::{Plan, Planner};
 use bellyflop::scvx::Silent;
-use bellyflop::{Scenario, Status};
+use bellyflop::{Case, Status};
 
-fn paper(n: usize) -> Scenario {
-    let mut s = Scenario::paper();
-    s.discretization.nodes = n;
+fn paper(n: usize) -> Case {
+    let mut s = Case::paper();
+    s.scenario.discretization.nodes = n;
     s
 }
 
@@ -33,23 +33,25 @@ fn main() {
     for chain in chains {
         for _ in 0..3 {
             let t0 = Instant::now();
-            let mut sol = bellyflop::solve(&paper(chain[0]), &mut Silent);
+            let mut sol = paper(chain[0]).solve(&mut Silent);
             let mut its = vec![sol.iterations];
             for &n in &chain[1..] {
                 if sol.status != Status::Solved {
                     break;
                 }
                 let s = paper(n);
-                let mut planner = Planner::new(s.clone());
+                let mut planner = Planner::new(s.scenario.clone(), s.solver.clone());
                 // The SCvx warm re-plan (the scenario's default method is direct).
                 planner.method = bellyflop::Method::Scvx;
                 planner.plan = Some(Plan::from_solution(&sol));
-                sol = planner.replan(&s.initial, 0.0, &mut Silent).expect("valid");
+                sol = planner
+                    .replan(&s.scenario.initial, 0.0, &mut Silent)
+                    .expect("valid");
                 its.push(sol.iterations);
             }
             let ms = t0.elapsed().as_secs_f64() * 1e3;
             let t1 = Instant::now();
-            let direct = bellyflop::solve(&paper(*chain.last().unwrap()), &mut Silent);
+            let direct = paper(*chain.last().unwrap()).solve(&mut Silent);
             let direct_ms = t1.elapsed().as_secs_f64() * 1e3;
             println!(
                 "{chain:?}: its {its:?} {} {ms:.1} ms m_f {:.2} kg | direct: {} its {direct_ms:.1} ms m_f {:.2} kg | ratio {:.2}",

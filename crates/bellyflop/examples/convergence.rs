@@ -2,10 +2,10 @@
 //!
 //! `cargo run --release -p bellyflop --example convergence [exact|paper|vector ...]`
 use bellyflop::scvx::Silent;
-use bellyflop::{Formulation, Scenario};
+use bellyflop::{Case, Formulation};
 
-fn report(label: &str, s: &Scenario) {
-    let sol = bellyflop::solve(s, &mut Silent);
+fn report(label: &str, s: &Case) {
+    let sol = s.solve(&mut Silent);
     println!(
         "{label:<44} {:<13} it {:>3}  t_f {:>8.4} s  m_f {:>9.1} kg  defect {:>7.1e}  gap {:>7.1e}  {:>6.0} ms",
         sol.status.as_str(),
@@ -33,10 +33,10 @@ fn main() {
     for &form in &forms {
         for n in [10, 15, 20, 30, 40] {
             for tf in [8.0, 12.0, 16.0, 20.0] {
-                let mut s = Scenario::paper();
+                let mut s = Case::paper();
                 s.solver.formulation = form;
-                s.discretization.nodes = n;
-                s.discretization.tf_guess_s = tf;
+                s.scenario.discretization.nodes = n;
+                s.scenario.discretization.tf_guess_s = tf;
                 report(&format!("{form:?} paper case N={n} tf_guess={tf}"), &s);
             }
         }
@@ -51,14 +51,14 @@ fn main() {
         [60.0, 700.0, 5.0, -88.0, 82.0, 124_000.0],
     ] {
         for &form in &forms {
-            let mut s = Scenario::paper();
-            s.initial.x_m = d[0];
-            s.initial.z_m = d[1];
-            s.initial.vx_mps = d[2];
-            s.initial.vz_mps = d[3];
-            s.initial.theta_deg = d[4];
-            s.initial.mass_kg = d[5];
-            s.discretization.final_mass_guess_kg = d[5] - 5_000.0;
+            let mut s = Case::paper();
+            s.scenario.initial.x_m = d[0];
+            s.scenario.initial.z_m = d[1];
+            s.scenario.initial.vx_mps = d[2];
+            s.scenario.initial.vz_mps = d[3];
+            s.scenario.initial.theta_deg = d[4];
+            s.scenario.initial.mass_kg = d[5];
+            s.scenario.discretization.final_mass_guess_kg = d[5] - 5_000.0;
             s.solver.formulation = form;
             report(&format!("{form:?} {d:?}"), &s);
         }

@@ -4,19 +4,19 @@
 //!     cargo run --release -p bellyflop --example direct_repeat -- [N] [RUNS]
 
 use bellyflop::scvx::Silent;
-use bellyflop::{Method, Scenario};
+use bellyflop::{Case, Method};
 
 fn main() {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(20);
     let runs: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(50);
-    let mut s = Scenario::paper();
-    s.discretization.nodes = n;
+    let mut s = Case::paper();
+    s.scenario.discretization.nodes = n;
     s.solver.method = Method::Direct;
     let mut ms = Vec::with_capacity(runs);
     let mut last = None;
     for _ in 0..runs {
-        let sol = bellyflop::solve(&s, &mut Silent);
+        let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
         ms.push(sol.solve_time_ms);
         last = Some(sol);
     }

@@ -14,7 +14,7 @@
 //! worse.
 
 use bellyflop::scvx::Silent;
-use bellyflop::{Method, Scenario, Status};
+use bellyflop::{Case, Method, Status};
 
 struct Row {
     name: String,
@@ -75,17 +75,17 @@ fn main() {
     let (mut its, mut ipopt_its, mut gaps) = (Vec::new(), Vec::new(), Vec::new());
     let (mut converged, mut coarse_its) = (0, Vec::new());
     for r in &rows {
-        let mut s = Scenario::paper();
-        s.discretization.nodes = n;
+        let mut s = Case::paper();
+        s.scenario.discretization.nodes = n;
         s.solver.method = Method::Direct;
         if !overrides.is_empty() {
             s.solver.direct =
                 toml::from_str(&overrides.join("\n")).expect("key=value of [solver.direct]");
         }
-        let i = &mut s.initial;
+        let i = &mut s.scenario.initial;
         [i.x_m, i.z_m, i.vx_mps, i.vz_mps, i.theta_deg, i.mass_kg] = r.state;
-        s.discretization.final_mass_guess_kg = r.state[5] - 5000.0;
-        let sol = bellyflop::solve(&s, &mut Silent);
+        s.scenario.discretization.final_mass_guess_kg = r.state[5] - 5000.0;
+        let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
         let ok = matches!(sol.status, Status::Solved | Status::Inaccurate);
         converged += usize::from(ok);
         ms += sol.solve_time_ms;

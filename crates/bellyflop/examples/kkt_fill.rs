@@ -18,7 +18,7 @@ use std::time::Instant;
 use bellyflop::dynamics::NX;
 use bellyflop::scvx::straight_line;
 use bellyflop::transcription::Transcription;
-use bellyflop::{Formulation, Scenario};
+use bellyflop::{Case, Formulation};
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettings};
 
@@ -44,11 +44,11 @@ fn main() {
     println!("  N  formulation  vars  rows  nnz(A)  nnz(L)  factor [ms]   (defect rows dropped: {drop:?})");
     for n in [20usize, 40] {
         for form in [Formulation::Paper, Formulation::Exact] {
-            let mut s = Scenario::paper();
-            s.discretization.nodes = n;
+            let mut s = Case::paper();
+            s.scenario.discretization.nodes = n;
             s.solver.formulation = form;
-            let tr = Transcription::new(&s);
-            let d = &s.discretization;
+            let tr = Transcription::new(&s.scenario, &s.solver);
+            let d = &s.scenario.discretization;
             let guess = straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
             let data = tr.assemble(&guess, 1.0, 0.0);
             let (m, nv) = (data.a.m, data.a.n);

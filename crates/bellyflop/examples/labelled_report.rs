@@ -16,7 +16,7 @@ use labelled::*;
 fn main() {
     for e in entries() {
         let s = scenario(&e, Method::Direct);
-        let bound = feasibility::stopping_bound(&s);
+        let bound = feasibility::stopping_bound(&s.scenario);
         println!(
             "{:<22} {:?} {:?}: bound {} m of {:.0} m, certified {}",
             e.name,
@@ -24,7 +24,7 @@ fn main() {
             e.set,
             bound.map_or("-".into(), |b| format!("{:.1}", b.distance_m)),
             e.z_m,
-            feasibility::certify(&s).is_some()
+            feasibility::certify(&s.scenario).is_some()
         );
         for (method, nodes) in [
             (Method::Direct, 20),
@@ -36,12 +36,12 @@ fn main() {
                 continue;
             }
             let mut s = scenario(&e, method);
-            s.discretization.nodes = nodes;
+            s.scenario.discretization.nodes = nodes;
             let alone = match method {
-                Method::Direct => bellyflop::direct::solve(&s, &mut Silent),
-                Method::Scvx => bellyflop::scvx::solve(&s, &mut Silent),
+                Method::Direct => bellyflop::direct::solve(&s.scenario, &s.solver, &mut Silent),
+                Method::Scvx => bellyflop::scvx::solve(&s.scenario, &s.solver, &mut Silent),
             };
-            let landing = bellyflop::propagate::propagate(&s, &alone, &Default::default())
+            let landing = bellyflop::propagate::propagate(&s.scenario, &alone, &Default::default())
                 .map(|p| {
                     format!(
                         "{:.2} m {:.2} m/s",

@@ -20,7 +20,7 @@ use bellyflop::propagate::{
     integrate_controls, landing_error, propagate, Controls, Interpolation, NozzleModel, Options,
 };
 use bellyflop::scvx::Silent;
-use bellyflop::Scenario;
+use bellyflop::Case;
 
 fn main() {
     let paper = std::env::args().nth(1).as_deref() == Some("paper");
@@ -45,12 +45,12 @@ fn main() {
         "steps"
     );
     for n in nodes {
-        let mut s = Scenario::paper();
-        s.discretization.nodes = n;
+        let mut s = Case::paper();
+        s.scenario.discretization.nodes = n;
         if paper {
             s.solver.formulation = bellyflop::Formulation::Paper;
         }
-        let sol = bellyflop::solve(&s, &mut Silent);
+        let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
         for interpolation in [Interpolation::Linear, Interpolation::Pchip] {
             for nozzle in [NozzleModel::Angle, NozzleModel::Rate] {
                 let opts = Options {
@@ -58,7 +58,7 @@ fn main() {
                     nozzle,
                     ..Options::default()
                 };
-                match propagate(&s, &sol, &opts) {
+                match propagate(&s.scenario, &sol, &opts) {
                     Ok(p) => {
                         let e = p.landing_error;
                         println!(
@@ -86,7 +86,7 @@ fn main() {
             .map(|i| sol.tf_s * i as f64 / samples as f64)
             .collect();
         let tau = |t: f64| 2.0 * t / sol.tf_s - 1.0;
-        let model = Model::new(&s.vehicle, &s.environment);
+        let model = Model::new(&s.scenario.vehicle, &s.scenario.environment);
         let delta: Vec<f64> = t
             .iter()
             .map(|&t| lgr.interpolate_states(&sol.delta_rad, tau(t)))
@@ -124,7 +124,7 @@ fn main() {
             };
             if let Ok((_, states, _, stats)) = integrate_controls(&model, &controls, &opts) {
                 let end = *states.last().unwrap();
-                let e = landing_error(&s, &end);
+                let e = landing_error(&s.scenario, &end);
                 let (tmin, tmax) = thrust
                     .iter()
                     .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {

@@ -13,7 +13,7 @@
 
 use bellyflop::replan::{initial_state, Planner};
 use bellyflop::scvx::Silent;
-use bellyflop::Scenario;
+use bellyflop::Case;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -32,12 +32,12 @@ fn main() {
     let ns = if ns.is_empty() { vec![10, 20, 40] } else { ns };
     println!("  N  cold its    ms  status   | warm its    ms  status   m_f change");
     for n in ns {
-        let mut s = Scenario::paper();
-        s.discretization.nodes = n;
+        let mut s = Case::paper();
+        s.scenario.discretization.nodes = n;
         if let Some(m) = intervals {
-            s.discretization.intervals = m as usize;
+            s.scenario.discretization.intervals = m as usize;
         }
-        let mut planner = Planner::new(s);
+        let mut planner = Planner::new(s.scenario, s.solver);
         // The SCvx warm re-plan (the scenario's default method is direct).
         planner.method = bellyflop::Method::Scvx;
         let cold = planner.cold(&mut Silent);

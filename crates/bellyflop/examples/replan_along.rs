@@ -4,16 +4,16 @@
 //! `cargo run --release -p bellyflop --example replan_along \[N\]`
 use bellyflop::replan::{initial_state, Planner};
 use bellyflop::scvx::Silent;
-use bellyflop::Scenario;
+use bellyflop::Case;
 
 fn main() {
     let n = std::env::args()
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(20);
-    let mut s = Scenario::paper();
-    s.discretization.nodes = n;
-    let mut planner = Planner::new(s);
+    let mut s = Case::paper();
+    s.scenario.discretization.nodes = n;
+    let mut planner = Planner::new(s.scenario, s.solver);
     // The SCvx warm re-plan (the scenario's default method is direct).
     planner.method = bellyflop::Method::Scvx;
     let cold = planner.cold(&mut Silent);

@@ -11,17 +11,16 @@
 //! [`Status::Inaccurate`].
 
 use crate::propagate::{self, Options};
-use crate::scenario::Scenario;
+use crate::scenario::{Scenario, SolverSettings};
 use crate::solution::{Solution, Status};
 
 /// Demote a `solved` answer whose re-integrated landing error exceeds the
 /// scenario's tolerances (or cannot be measured) to `inaccurate`, with a
 /// message that names the error and what to do. Other statuses are left alone.
-pub fn check(scenario: &Scenario, sol: &mut Solution) {
+pub fn check(scenario: &Scenario, settings: &SolverSettings, sol: &mut Solution) {
     if sol.status != Status::Solved {
         return;
     }
-    let settings = &scenario.solver;
     let (tol_m, tol_mps) = (
         settings.landing_position_tolerance_m,
         settings.landing_velocity_tolerance_mps,

@@ -12,7 +12,7 @@ use serde_json::{json, Value};
 
 use crate::guidance::{end_state, Flight, ReplanOutcome, SimConfig};
 use crate::sim::{Outcome, RunOutcome, TouchdownLimits};
-use crate::{InputError, Scenario};
+use crate::{Case, InputError};
 
 /// The columns of runs.csv, in order.
 pub const RUNS_CSV_COLUMNS: [&str; 17] = [
@@ -36,13 +36,8 @@ pub const RUNS_CSV_COLUMNS: [&str; 17] = [
 ];
 
 /// Fly run `run` of the campaign `seed` (no trace recorded) and build its row.
-pub fn fly_row(
-    scenario: &Scenario,
-    config: &SimConfig,
-    seed: u64,
-    run: u64,
-) -> Result<RunRow, InputError> {
-    let f = config.fly(scenario, seed, run, false)?;
+pub fn fly_row(case: &Case, config: &SimConfig, seed: u64, run: u64) -> Result<RunRow, InputError> {
+    let f = config.fly(case, seed, run, false)?;
     Ok(RunRow::new(run, &f, &config.touchdown))
 }
 

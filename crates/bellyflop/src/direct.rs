@@ -27,6 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::kkt::{Inertia, KktMatrix, KktSolver};
 use crate::nlp::{Nlp, PointDerivatives, NL, NS};
+use crate::scenario::SolverSettings;
 use crate::scvx::Observer;
 use crate::solution::Status;
 
@@ -1258,13 +1259,17 @@ pub fn checks(nlp: &Nlp, w: &[f64]) -> crate::solution::Checks {
 
 /// Solve a scenario with the direct method from the reference's straight
 /// line (states linear in τ, T mid-range, χ = 0, the scenario's guesses).
-pub fn solve(scenario: &crate::Scenario, observer: &mut dyn Observer) -> crate::Solution {
-    let nlp = Nlp::new(scenario);
+pub fn solve(
+    scenario: &crate::Scenario,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+) -> crate::Solution {
+    let nlp = Nlp::new(scenario, settings);
     let d = &scenario.discretization;
     let w0 = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
-    let coarse_n = scenario.solver.direct.coarse_nodes;
+    let coarse_n = settings.direct.coarse_nodes;
     if coarse_n < 4 || 2 * coarse_n > d.nodes {
-        return solve_from(scenario, &nlp, &w0, None, observer);
+        return solve_from(scenario, settings, &nlp, &w0, None, observer);
     }
     // Every phase's iterations and time are counted in the answer.
     let start = Instant::now();
@@ -1272,47 +1277,39 @@ pub fn solve(scenario: &crate::Scenario, observer: &mut dyn Observer) -> crate::
     let mut coarse = scenario.clone();
     coarse.discretization.nodes = coarse_n;
     coarse.discretization.intervals = 1;
-    let cnlp = Nlp::new(&coarse);
+    let cnlp = Nlp::new(&coarse, settings);
     let cw0 = cnlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
     let coarse_settings = DirectSettings {
-        tolerance: scenario.solver.direct.coarse_tolerance,
-        ..scenario.solver.direct.clone()
+        tolerance: settings.direct.coarse_tolerance,
+        ..settings.direct.clone()
     };
     let mut first = solve_nlp(&cnlp, &cw0, None, &coarse_settings, observer);
     spent.append(&mut first.history);
-    let mut budget = scenario.clone();
-    budget.solver.direct.max_iterations = scenario
-        .solver
-        .direct
-        .max_iterations
-        .saturating_sub(spent.len());
+    let max_iterations = settings.direct.max_iterations;
+    let mut budget = settings.clone();
+    budget.direct.max_iterations = max_iterations.saturating_sub(spent.len());
     let warm = interpolate(&cnlp, &first.w, &nlp);
-    if budget.solver.direct.max_iterations > 0 && first.status == Status::Solved {
+    if budget.direct.max_iterations > 0 && first.status == Status::Solved {
         let mut fine = budget.clone();
-        fine.solver.direct.mu_init = WARM_MU;
-        let mut sol = solve_from(&fine, &nlp, &warm, None, observer);
+        fine.direct.mu_init = WARM_MU;
+        let mut sol = solve_from(scenario, &fine, &nlp, &warm, None, observer);
         spent.append(&mut sol.direct_history);
         if sol.status == Status::Solved {
             return with_phases(sol, spent, start);
         }
-        budget.solver.direct.max_iterations = scenario
-            .solver
-            .direct
-            .max_iterations
-            .saturating_sub(spent.len());
+        budget.direct.max_iterations = max_iterations.saturating_sub(spent.len());
     }
-    if budget.solver.direct.max_iterations == 0 {
+    if budget.direct.max_iterations == 0 {
         // The limit was spent on the coarse phase: its last iterate, carried
         // onto the scenario's mesh, not iterated there.
-        let mut sol = solve_from(&budget, &nlp, &warm, None, observer);
+        let mut sol = solve_from(scenario, &budget, &nlp, &warm, None, observer);
         sol.status = Status::NotConverged;
         sol.message = format!(
-            "no convergence in {} interior-point iterations (coarse start included); the last iterate is returned",
-            scenario.solver.direct.max_iterations
+            "no convergence in {max_iterations} interior-point iterations (coarse start included); the last iterate is returned"
         );
         return with_phases(sol, spent, start);
     }
-    let mut sol = solve_from(&budget, &nlp, &w0, None, observer);
+    let mut sol = solve_from(scenario, &budget, &nlp, &w0, None, observer);
     let mut own = std::mem::take(&mut sol.direct_history);
     spent.append(&mut own);
     with_phases(sol, spent, start)
@@ -1364,17 +1361,20 @@ pub fn interpolate(from: &Nlp, w: &[f64], to: &Nlp) -> Vec<f64> {
 /// starts), and report the answer as a [`crate::Solution`].
 pub fn solve_from(
     scenario: &crate::Scenario,
+    settings: &SolverSettings,
     nlp: &Nlp,
     w0: &[f64],
     lambda0: Option<&[f64]>,
     observer: &mut dyn Observer,
 ) -> crate::Solution {
     let start = Instant::now();
-    let r = solve_nlp(nlp, w0, lambda0, &scenario.solver.direct, observer);
+    let r = solve_nlp(nlp, w0, lambda0, &settings.direct, observer);
     let ms = start.elapsed().as_secs_f64() * 1e3;
-    let mut exact = scenario.clone();
-    exact.solver.formulation = crate::Formulation::Exact;
-    let tr = crate::transcription::Transcription::new(&exact);
+    let exact = SolverSettings {
+        formulation: crate::Formulation::Exact,
+        ..settings.clone()
+    };
+    let tr = crate::transcription::Transcription::new(scenario, &exact);
     let checks = checks(nlp, &r.w);
     let (mut status, mut message) = (r.status, r.message);
     if status == Status::Solved && checks.min_altitude_margin_m < -crate::scvx::GROUND_TOLERANCE_M {
@@ -1428,12 +1428,13 @@ mod tests {
             let mut s = Scenario::paper();
             s.discretization.nodes = nodes;
             s.discretization.intervals = intervals;
+            let mut sv = SolverSettings::default();
             if soft {
-                s.solver.thrust_margin_frac = 0.1;
-                s.solver.thrust_margin_weight = 3.0;
-                s.solver.terminal_lateral_weight = 2.0;
+                sv.thrust_margin_frac = 0.1;
+                sv.thrust_margin_weight = 3.0;
+                sv.terminal_lateral_weight = 2.0;
             }
-            let nlp = Nlp::new(&s);
+            let nlp = Nlp::new(&s, &sv);
             let mut w = nlp.straight_line(11.0, 114_000.0);
             if soft {
                 use crate::nlp::slot;

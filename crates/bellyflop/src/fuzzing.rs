@@ -32,7 +32,7 @@
 use rand::Rng;
 
 use crate::error::{FileKind, InputError};
-use crate::scenario::{Method, Scenario};
+use crate::scenario::{Case, Method, Scenario};
 use crate::solution::{Solution, Status};
 
 /// Iteration caps of [`exercise`]'s solves.
@@ -76,12 +76,12 @@ pub fn exercise_with(bytes: &[u8], budget: Budget) -> Outcome {
         Ok(text) => text,
         Err(e) => return rejected(e),
     };
-    let scenario = match Scenario::from_toml_str(&text) {
+    let case = match Case::from_toml_str(&text) {
         Ok(s) => s,
         Err(e) => return rejected(e),
     };
-    round_trip(&scenario);
-    let mut s = scenario;
+    round_trip(&case);
+    let mut s = case;
     s.solver.max_iterations = s.solver.max_iterations.min(budget.scvx_iterations);
     s.solver.relaxed_first_iterations = s
         .solver
@@ -95,8 +95,8 @@ pub fn exercise_with(bytes: &[u8], budget: Budget) -> Outcome {
     let mut answers = Vec::with_capacity(2);
     for method in [Method::Direct, Method::Scvx] {
         s.solver.method = method;
-        let sol = crate::solve(&s, &mut crate::scvx::Silent);
-        check_answer(&s, method, &sol);
+        let sol = s.solve(&mut crate::scvx::Silent);
+        check_answer(&s.scenario, method, &sol);
         answers.push((method, sol.status));
     }
     Outcome::Ran(answers)
@@ -127,11 +127,11 @@ fn rejected(e: InputError) -> Outcome {
     Outcome::Rejected(e)
 }
 
-/// A valid scenario writes to TOML and reads back, valid and equal.
-fn round_trip(s: &Scenario) {
+/// A valid scenario file writes to TOML and reads back, valid and equal.
+fn round_trip(s: &Case) {
     let text =
         toml::to_string(s).unwrap_or_else(|e| panic!("a valid scenario must serialize: {e}"));
-    match Scenario::from_toml_str(&text) {
+    match Case::from_toml_str(&text) {
         Ok(back) => assert!(
             back == *s,
             "the scenario read back differs:\n{text}\n{back:?}\n{s:?}"

@@ -70,7 +70,7 @@ use crate::dynamics::ix;
 use crate::error::InputError;
 use crate::navigation::{PositionFilter, WindEstimator};
 use crate::replan::{initial_state, Plan, Planner};
-use crate::scenario::Scenario;
+use crate::scenario::{Case, Scenario};
 use crate::scvx::Silent;
 use crate::sim::{
     Command, Dispersions, Outcome, Plant, PlantConfig, PlantState, RunOutcome, SaturationCounts,
@@ -484,7 +484,7 @@ fn lcvx(s: &PlantState) -> [f64; 8] {
 /// Errors only for invalid configurations; every valid input gives a
 /// [`Flight`], whatever happens in it.
 pub fn fly(
-    scenario: &Scenario,
+    case: &Case,
     dispersions: &Dispersions,
     plant_config: &PlantConfig,
     guidance: &GuidanceConfig,
@@ -492,19 +492,21 @@ pub fn fly(
     run_index: u64,
     keep_trace: bool,
 ) -> Result<Flight, InputError> {
-    scenario.validate()?;
+    case.validate()?;
     dispersions.validate()?;
     guidance.validate()?;
+    let scenario = &case.scenario;
     let mut realization = dispersions.sample(seed, run_index);
     let mut plant = Plant::from_realization(scenario, plant_config, &realization)?;
     let initial_mass_kg = plant.state().mass_kg;
     let model = plant.model().clone();
     // The planner's engine: the true one less the feedback margin.
     let mut planning = scenario.clone();
+    let mut settings = case.solver.clone();
     let mu = guidance.thrust_margin_frac;
     if guidance.thrust_margin_soft {
-        planning.solver.thrust_margin_frac = mu;
-        planning.solver.thrust_margin_weight = guidance.thrust_margin_weight;
+        settings.thrust_margin_frac = mu;
+        settings.thrust_margin_weight = guidance.thrust_margin_weight;
     } else {
         planning.vehicle.min_thrust_n *= 1.0 + mu;
         planning.vehicle.max_thrust_n *= 1.0 - mu;
@@ -519,6 +521,7 @@ pub fn fly(
     planning.vehicle.max_gimbal_deg *= 1.0 - guidance.gimbal_margin_frac;
     planning.vehicle.max_gimbal_rate_degps *= 1.0 - guidance.gimbal_margin_frac;
     planning.validate()?;
+    settings.validate()?;
     let scenario = &planning;
 
     // First plan: a cold solve from the measured initial state.
@@ -535,12 +538,12 @@ pub fn fly(
         s0.vehicle.dry_mass_kg,
         s0.discretization.final_mass_guess_kg,
     );
-    let mut planner = Planner::new(scenario.clone());
+    let mut planner = Planner::new(scenario.clone(), settings.clone());
     planner.method = guidance.replan_method;
     planner.direct_max_iterations = guidance.replan_direct_max_iterations;
     let (mut first_plan, mut nominal) = (None, false);
     if s0.validate().is_ok() {
-        let mut p = Planner::new(s0);
+        let mut p = Planner::new(s0, settings);
         p.method = guidance.replan_method;
         let sol = p.cold(&mut Silent);
         if sol.status == Status::Solved {
@@ -556,11 +559,11 @@ pub fn fly(
         }
     };
     // Re-plans run on the iteration budget (the cold first plan does not).
-    planner.scenario.solver.max_iterations = guidance.replan_max_iterations;
+    planner.settings.max_iterations = guidance.replan_max_iterations;
     planner.warm_relaxed_iterations = guidance.replan_relaxed_iterations;
     planner.warm_proximal_weight = guidance.replan_proximal_weight;
-    planner.scenario.solver.second_order_correction = guidance.replan_second_order_correction;
-    planner.scenario.solver.terminal_lateral_weight = guidance.terminal_lateral_weight;
+    planner.settings.second_order_correction = guidance.replan_second_order_correction;
+    planner.settings.terminal_lateral_weight = guidance.terminal_lateral_weight;
     if guidance.replan_nodes > 0 {
         let d = &mut planner.scenario.discretization;
         d.nodes = guidance.replan_nodes;
@@ -1016,13 +1019,13 @@ impl SimConfig {
     /// Fly run `run_index` of campaign `seed` with this configuration.
     pub fn fly(
         &self,
-        scenario: &Scenario,
+        case: &Case,
         seed: u64,
         run_index: u64,
         keep_trace: bool,
     ) -> Result<Flight, InputError> {
         fly(
-            scenario,
+            case,
             &self.dispersions,
             &self.plant,
             &self.guidance,
@@ -1048,7 +1051,7 @@ mod tests {
     /// the pad, re-planning without failures.
     #[test]
     fn nominal_closed_loop_lands_on_the_pad() {
-        let f = nominal().fly(&Scenario::paper(), 1, 0, false).unwrap();
+        let f = nominal().fly(&Case::paper(), 1, 0, false).unwrap();
         let Outcome::Touchdown(td) = f.outcome else {
             panic!("no touchdown: {:?}", f.outcome)
         };
@@ -1078,7 +1081,7 @@ mod tests {
     fn nominal_closed_loop_with_direct_replans_lands_on_the_pad() {
         let mut c = nominal();
         c.guidance.replan_method = crate::Method::Direct;
-        let f = c.fly(&Scenario::paper(), 1, 0, false).unwrap();
+        let f = c.fly(&Case::paper(), 1, 0, false).unwrap();
         let Outcome::Touchdown(td) = f.outcome else {
             panic!("no touchdown: {:?}", f.outcome)
         };
@@ -1100,7 +1103,7 @@ mod tests {
     fn replanning_can_stop_at_the_final_burn() {
         let mut c = nominal();
         c.guidance.stop_at_final_burn = true;
-        let f = c.fly(&Scenario::paper(), 1, 0, false).unwrap();
+        let f = c.fly(&Case::paper(), 1, 0, false).unwrap();
         assert!(
             matches!(f.outcome, Outcome::Touchdown(_)),
             "{:?}",
@@ -1154,8 +1157,8 @@ mod tests {
     /// vehicle was lighter than the guess).
     #[test]
     fn replans_survive_a_final_mass_guess_near_the_initial_mass() {
-        let mut s = Scenario::paper();
-        s.discretization.final_mass_guess_kg = 119_000.0;
+        let mut s = Case::paper();
+        s.scenario.discretization.final_mass_guess_kg = 119_000.0;
         let f = nominal().fly(&s, 1, 0, false).unwrap();
         assert_eq!(f.replans.len(), 21, "{:?}", f.replans);
         let flown = f.count(ReplanOutcome::Accepted) + f.count(ReplanOutcome::Usable);
@@ -1168,7 +1171,7 @@ mod tests {
     #[test]
     fn final_mass_guess_follows_the_plan_and_stays_in_bounds() {
         use crate::replan::final_mass_guess;
-        let mut p = Planner::new(Scenario::paper());
+        let mut p = Planner::new(Scenario::paper(), Default::default());
         p.cold(&mut Silent);
         let plan = p.plan.expect("the paper's case solves");
         let n = plan.mesh.n;
@@ -1197,7 +1200,7 @@ mod tests {
     #[test]
     fn runs_are_reproducible() {
         let c = SimConfig::default();
-        let s = Scenario::paper();
+        let s = Case::paper();
         let a = c.fly(&s, 7, 3, false).unwrap();
         let b = c.fly(&s, 7, 3, false).unwrap();
         assert_eq!(end_state(&a.outcome), end_state(&b.outcome));

@@ -1229,10 +1229,11 @@ mod tests {
             let mut s = Scenario::paper();
             s.discretization.nodes = nodes;
             s.discretization.intervals = intervals;
+            let mut sv = crate::SolverSettings::default();
             if soft {
-                s.solver.terminal_lateral_weight = 1.0;
+                sv.terminal_lateral_weight = 1.0;
             }
-            let nlp = Nlp::new(&s);
+            let nlp = Nlp::new(&s, &sv);
             let kkt = random_system(&nlp, &mut rng, definite);
             let mut solver = KktSolver::new(&nlp);
             if path == ReducedPath::BunchKaufman {
@@ -1308,7 +1309,7 @@ mod tests {
             let mut s = Scenario::paper();
             s.discretization.nodes = nodes;
             s.discretization.intervals = intervals;
-            let nlp = Nlp::new(&s);
+            let nlp = Nlp::new(&s, &Default::default());
             let solver = KktSolver::new(&nlp);
             let x = &solver.x;
             let n = nlp.n;
@@ -1360,7 +1361,7 @@ mod tests {
     #[test]
     fn node_inertia_counts_negative_and_zero_eigenvalues() {
         let s = Scenario::paper();
-        let nlp = Nlp::new(&s);
+        let nlp = Nlp::new(&s, &Default::default());
         let mut solver = KktSolver::new(&nlp);
         let mut w = [[0.0; NL]; NL];
         for (r, row) in w.iter_mut().enumerate() {

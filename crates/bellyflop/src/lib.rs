@@ -47,7 +47,7 @@ pub mod transcription;
 pub mod validate;
 
 pub use error::InputError;
-pub use scenario::{Formulation, Method, Scenario};
+pub use scenario::{Case, Formulation, Method, Scenario, SolverSettings};
 pub use scvx::Observer;
 pub use solution::{Solution, Status};
 
@@ -67,14 +67,18 @@ pub use solution::{Solution, Status};
 /// answers); the re-integration of step 3 is not counted. The methods on
 /// their own ([`scvx::solve`], [`direct::solve`], and the closed loop's
 /// re-plans) skip all three steps.
-pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
+pub fn solve(
+    scenario: &Scenario,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+) -> Solution {
     let start = std::time::Instant::now();
     if let Some(certificate) = feasibility::certify(scenario) {
-        return certified(scenario, &certificate, start);
+        return certified(scenario, settings, &certificate, start);
     }
-    let mut sol = match scenario.solver.method {
-        Method::Scvx => scvx::solve(scenario, observer),
-        Method::Direct => direct::solve(scenario, observer),
+    let mut sol = match settings.method {
+        Method::Scvx => scvx::solve(scenario, settings, observer),
+        Method::Direct => direct::solve(scenario, settings, observer),
     };
     match sol.status {
         Status::Infeasible => {
@@ -86,7 +90,7 @@ pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
                 sol.message
             );
         }
-        Status::Solved => accuracy::check(scenario, &mut sol),
+        Status::Solved => accuracy::check(scenario, settings, &mut sol),
         _ => {}
     }
     sol
@@ -97,10 +101,11 @@ pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
 /// (no iterations).
 fn certified(
     scenario: &Scenario,
+    settings: &SolverSettings,
     certificate: &feasibility::Certificate,
     start: std::time::Instant,
 ) -> Solution {
-    let tr = transcription::Transcription::new(scenario);
+    let tr = transcription::Transcription::new(scenario, settings);
     let d = &scenario.discretization;
     let guess = scvx::straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
     let checks = solution::check(&tr, &guess, 0.0);
@@ -114,6 +119,6 @@ fn certified(
         Vec::new(),
         ms,
     );
-    sol.method = scenario.solver.method;
+    sol.method = settings.method;
     sol
 }

@@ -220,7 +220,7 @@ mod tests {
         let at_nodes: Vec<[f64; 8]> = (0..=n).map(|k| ys[20 * k]).collect();
         let col = |i: usize| at_nodes.iter().map(|y| y[i]).collect::<Vec<f64>>();
         // A solution of the right shape, its arrays then replaced.
-        let mut sol = crate::solve(&s, &mut crate::scvx::Silent);
+        let mut sol = crate::solve(&s, &Default::default(), &mut crate::scvx::Silent);
         assert_eq!((sol.nodes, sol.intervals), (n, intervals));
         sol.tf_s = tf;
         sol.t_s = t_nodes.clone();
@@ -331,7 +331,7 @@ mod tests {
     #[test]
     fn a_solution_without_nodes_is_an_error() {
         let s = Scenario::paper();
-        let mut sol = crate::solve(&s, &mut crate::scvx::Silent);
+        let mut sol = crate::solve(&s, &Default::default(), &mut crate::scvx::Silent);
         sol.z_m.pop();
         assert!(matches!(
             estimate(&s, &sol),

@@ -24,7 +24,7 @@ use num_dual::Dual2SVec64;
 
 use crate::dynamics::{self, Model};
 use crate::mesh::Mesh;
-use crate::scenario::{Formulation, Scenario};
+use crate::scenario::{Formulation, Scenario, SolverSettings};
 use crate::transcription::Scaling;
 
 /// States of P2 at a node: x, z, Vx, Vz, θ, w, m, δ.
@@ -137,8 +137,8 @@ fn smooth_abs(u: f64) -> (f64, f64, f64) {
 
 impl Nlp {
     /// The transcription of a validated scenario on its mesh, with the
-    /// ground bound z ≥ z_f at every node.
-    pub fn new(s: &Scenario) -> Self {
+    /// ground bound z ≥ z_f at every node and the soft terms of `sv`.
+    pub fn new(s: &Scenario, sv: &SolverSettings) -> Self {
         let d = &s.discretization;
         let mesh = Mesh::uniform(d.nodes, d.intervals);
         let model = Model::new(&s.vehicle, &s.environment);
@@ -181,7 +181,6 @@ impl Nlp {
             d_cols,
             soft: SoftTerms::default(),
         };
-        let sv = &s.solver;
         let (t_min, t_max) = (nlp.model.min_thrust_n, nlp.model.max_thrust_n);
         if sv.thrust_margin_frac > 0.0 {
             nlp.soft.margin_weight = sv.thrust_margin_weight;
@@ -584,7 +583,7 @@ mod tests {
     fn nlp() -> Nlp {
         let mut s = Scenario::paper();
         s.discretization.nodes = 7;
-        Nlp::new(&s)
+        Nlp::new(&s, &SolverSettings::default())
     }
 
     /// A generic interior point: the straight line, perturbed.
@@ -666,7 +665,7 @@ mod tests {
         let mut s = Scenario::paper();
         s.vehicle.drag_coefficient_kgpm = 0.0;
         s.discretization.nodes = 6;
-        let nlp = Nlp::new(&s);
+        let nlp = Nlp::new(&s, &SolverSettings::default());
         let tf = 10.0;
         let g = nlp.model.g0_mps2;
         let mut w = vec![0.0; nlp.n_var()];

@@ -173,6 +173,9 @@ pub fn shifted_reference(plan: &Plan, elapsed_s: f64, tr: &Transcription) -> Tra
 pub struct Planner {
     /// The scenario of the cold solve; re-plans replace its initial state.
     pub scenario: Scenario,
+    /// The settings of the cold solve and of the re-plans (with the warm
+    /// changes below).
+    pub settings: SolverSettings,
     pub plan: Option<Plan>,
     /// Iterations of a re-plan's relaxed first phase (the paper's formulation,
     /// kept only if it passes every physical check); 0, the default, solves
@@ -193,11 +196,12 @@ pub struct Planner {
 }
 
 impl Planner {
-    /// `scenario` must have passed validation.
-    pub fn new(scenario: Scenario) -> Planner {
+    /// `scenario` and `settings` must have passed validation.
+    pub fn new(scenario: Scenario, settings: SolverSettings) -> Planner {
         Planner {
-            method: scenario.solver.method,
+            method: settings.method,
             scenario,
+            settings,
             plan: None,
             warm_relaxed_iterations: 0,
             warm_proximal_weight: WARM_PROXIMAL_WEIGHT,
@@ -215,8 +219,8 @@ impl Planner {
 
     fn cold_solve(&self, s: &Scenario, observer: &mut dyn Observer) -> Solution {
         match self.method {
-            Method::Scvx => scvx::solve(s, observer),
-            Method::Direct => direct::solve(s, observer),
+            Method::Scvx => scvx::solve(s, &self.settings, observer),
+            Method::Direct => direct::solve(s, &self.settings, observer),
         }
     }
 
@@ -253,6 +257,7 @@ impl Planner {
             s.discretization.final_mass_guess_kg,
         );
         s.validate()?;
+        self.settings.validate()?;
         let Some(plan) = &self.plan else {
             let sol = self.cold_solve(&s, observer);
             return Ok(self.adopt(sol));
@@ -262,8 +267,9 @@ impl Planner {
             return Ok(self.adopt(sol));
         }
         // SCvx's relaxed-then-exact phases from the shifted plan, each with
-        // the warm trust region; `s.solver.max_iterations` bounds both.
-        s.solver.proximal_weight = self.warm_proximal_weight;
+        // the warm trust region; `solver.max_iterations` bounds both.
+        let mut settings = self.settings.clone();
+        settings.proximal_weight = self.warm_proximal_weight;
         let warm =
             |settings: &mut SolverSettings| settings.trust_region_initial = WARM_TRUST_REGION;
         let phases = scvx::Phases {
@@ -272,7 +278,7 @@ impl Planner {
             exact_tuning: warm,
         };
         let reference = |tr: &Transcription| shifted_reference(plan, elapsed_s, tr);
-        let sol = phases.solve(&s, &reference, &mut self.conics, observer);
+        let sol = phases.solve(&s, &settings, &reference, &mut self.conics, observer);
         Ok(self.adopt(sol))
     }
 }
@@ -283,20 +289,21 @@ impl Planner {
     /// μ_0 = [`direct::WARM_MU`], within [`Planner::direct_max_iterations`].
     fn direct_replan(
         &self,
-        mut s: Scenario,
+        s: Scenario,
         plan: &Plan,
         elapsed_s: f64,
         observer: &mut dyn Observer,
     ) -> Solution {
-        s.solver.formulation = Formulation::Exact;
-        s.solver.direct.mu_init = direct::WARM_MU;
-        s.solver.direct.max_iterations = self.direct_max_iterations;
-        let nlp = Nlp::new(&s);
-        let tr = Transcription::new(&s);
+        let mut sv = self.settings.clone();
+        sv.formulation = Formulation::Exact;
+        sv.direct.mu_init = direct::WARM_MU;
+        sv.direct.max_iterations = self.direct_max_iterations;
+        let nlp = Nlp::new(&s, &sv);
+        let tr = Transcription::new(&s, &sv);
         let mut guess = shifted_reference(plan, elapsed_s, &tr);
         blend_offset(&mut guess, &plan.state_at(elapsed_s), &tr.mesh.nodes);
         let w0 = nlp.from_trajectory(&guess);
-        let warm = direct::solve_from(&s, &nlp, &w0, None, observer);
+        let warm = direct::solve_from(&s, &sv, &nlp, &w0, None, observer);
         // By Bellman's principle the new optimum is near the plan's own
         // prediction (the final-mass guess); far below it, the warm start
         // has slid into another basin. Solve cold too and keep the better.
@@ -306,7 +313,7 @@ impl Planner {
         {
             return warm;
         }
-        let cold = direct::solve(&s, observer);
+        let cold = direct::solve(&s, &sv, observer);
         let better = cold.status == crate::Status::Solved
             && (warm.status != crate::Status::Solved || cold.final_mass_kg > warm.final_mass_kg);
         // Both solves' iterations, warm first, in the history and the count.

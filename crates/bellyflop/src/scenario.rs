@@ -275,7 +275,9 @@ impl Default for SolverSettings {
     }
 }
 
-/// A whole landing problem.
+/// A whole landing problem: the vehicle, its environment, the boundary
+/// states and the mesh. How it is solved is a [`SolverSettings`] value of its
+/// own; a scenario file holds both ([`Case`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
@@ -285,24 +287,75 @@ pub struct Scenario {
     pub initial: InitialState,
     pub terminal: TerminalState,
     pub discretization: Discretization,
-    #[serde(default)]
+}
+
+/// What a scenario file holds: the problem and, in its optional `[solver]`
+/// table, the settings to solve it with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Case {
+    pub scenario: Scenario,
     pub solver: SolverSettings,
 }
 
-/// The paper's case, as shipped in `scenarios/paper.toml`.
-pub const PAPER_TOML: &str = include_str!("../../../scenarios/paper.toml");
+/// A scenario file's tables, for serde: [`Case`] with the problem's tables at
+/// the top level.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CaseFile {
+    name: String,
+    vehicle: Vehicle,
+    environment: Environment,
+    initial: InitialState,
+    terminal: TerminalState,
+    discretization: Discretization,
+    #[serde(default)]
+    solver: SolverSettings,
+}
 
-impl Scenario {
-    /// The paper's case (Table 1, Section 4 boundary conditions, C_LD = 195.52 kg/m).
+impl Serialize for Case {
+    fn serialize<S: serde::Serializer>(&self, ser: S) -> Result<S::Ok, S::Error> {
+        let s = self.scenario.clone();
+        CaseFile {
+            name: s.name,
+            vehicle: s.vehicle,
+            environment: s.environment,
+            initial: s.initial,
+            terminal: s.terminal,
+            discretization: s.discretization,
+            solver: self.solver.clone(),
+        }
+        .serialize(ser)
+    }
+}
+
+impl<'de> Deserialize<'de> for Case {
+    fn deserialize<D: serde::Deserializer<'de>>(de: D) -> Result<Self, D::Error> {
+        let f = CaseFile::deserialize(de)?;
+        Ok(Case {
+            scenario: Scenario {
+                name: f.name,
+                vehicle: f.vehicle,
+                environment: f.environment,
+                initial: f.initial,
+                terminal: f.terminal,
+                discretization: f.discretization,
+            },
+            solver: f.solver,
+        })
+    }
+}
+
+impl Case {
+    /// The paper's case and its settings, as shipped in `scenarios/paper.toml`.
     pub fn paper() -> Self {
         Self::from_toml_str(PAPER_TOML).expect("the shipped paper scenario is valid")
     }
 
-    /// Parse and validate a scenario from TOML text.
+    /// Parse and validate a scenario file's text.
     pub fn from_toml_str(text: &str) -> Result<Self, InputError> {
-        let scenario: Scenario = crate::error::parse_toml(crate::error::FileKind::Scenario, text)?;
-        scenario.validate()?;
-        Ok(scenario)
+        let case: Case = crate::error::parse_toml(crate::error::FileKind::Scenario, text)?;
+        case.validate()?;
+        Ok(case)
     }
 
     /// Read, parse and validate a scenario file.
@@ -311,6 +364,34 @@ impl Scenario {
             crate::error::FileKind::Scenario,
             path,
         )?)
+    }
+
+    /// Check the problem and the settings, each field against its range.
+    pub fn validate(&self) -> Result<(), InputError> {
+        self.scenario.validate()?;
+        self.solver.validate()
+    }
+
+    /// Solve with [`crate::solve`].
+    pub fn solve(&self, observer: &mut dyn crate::Observer) -> crate::Solution {
+        crate::solve(&self.scenario, &self.solver, observer)
+    }
+}
+
+impl SolverSettings {
+    /// Check every field against its allowed range.
+    pub fn validate(&self) -> Result<(), InputError> {
+        crate::validate::solver(self)
+    }
+}
+
+/// The paper's case, as shipped in `scenarios/paper.toml`.
+pub const PAPER_TOML: &str = include_str!("../../../scenarios/paper.toml");
+
+impl Scenario {
+    /// The paper's case (Table 1, Section 4 boundary conditions, C_LD = 195.52 kg/m).
+    pub fn paper() -> Self {
+        Case::paper().scenario
     }
 
     /// Check every field against its allowed range.

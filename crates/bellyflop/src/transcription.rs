@@ -20,7 +20,7 @@
 
 use crate::dynamics::{self, ix, Model, NU_MAX, NX};
 use crate::mesh::Mesh;
-use crate::scenario::{Formulation, Scenario};
+use crate::scenario::{Formulation, Scenario, SolverSettings};
 
 /// A trajectory in physical units (SI, radians, ω = ln m) on the LGR grid.
 #[derive(Debug, Clone, PartialEq)]
@@ -220,11 +220,12 @@ pub struct Merit {
 
 impl Transcription {
     /// The transcription of `s` on its mesh (`s.discretization`: N points over
-    /// M intervals). `s` must have passed validation.
-    pub fn new(s: &Scenario) -> Self {
+    /// M intervals) for SCvx with settings `sv`. Both must have passed
+    /// validation.
+    pub fn new(s: &Scenario, sv: &SolverSettings) -> Self {
         let nodes = s.discretization.nodes;
         let model = Model::new(&s.vehicle, &s.environment);
-        let form = s.solver.formulation;
+        let form = sv.formulation;
         let layout = Layout {
             n: nodes,
             nu: dynamics::control_dim(form),
@@ -233,8 +234,8 @@ impl Transcription {
                 Formulation::Paper => 1,
                 Formulation::Vector => 2,
             },
-            soft_margin: s.solver.thrust_margin_frac > 0.0,
-            soft_terminal: s.solver.terminal_lateral_weight > 0.0,
+            soft_margin: sv.thrust_margin_frac > 0.0,
+            soft_terminal: sv.terminal_lateral_weight > 0.0,
         };
         let scaling = Scaling::new(s, &model, form);
         let i = &s.initial;
@@ -251,10 +252,10 @@ impl Transcription {
             scaling,
             x0,
             xf,
-            penalty: s.solver.virtual_control_weight,
-            margin_frac: s.solver.thrust_margin_frac,
-            margin_weight: s.solver.thrust_margin_weight,
-            terminal_weight: s.solver.terminal_lateral_weight,
+            penalty: sv.virtual_control_weight,
+            margin_frac: sv.thrust_margin_frac,
+            margin_weight: sv.thrust_margin_weight,
+            terminal_weight: sv.terminal_lateral_weight,
             ground_bound: true,
             pattern_a: [[false; NX]; NX],
             pattern_b: [[false; NU_MAX]; NX],

@@ -217,7 +217,6 @@ pub fn scenario(s: &Scenario) -> Result<(), InputError> {
     initial(&s.initial)?;
     terminal(&s.terminal)?;
     discretization(&s.discretization)?;
-    solver(&s.solver)?;
     consistency(s)
 }
 
@@ -320,7 +319,9 @@ fn discretization(d: &Discretization) -> Result<(), InputError> {
 
 /// Solver ranges: see [`MAX_ITERATIONS`], [`TOLERANCE`], [`WEIGHT`],
 /// [`TRUST_RADIUS`], [`RHO`], [`FACTOR`].
-fn solver(s: &SolverSettings) -> Result<(), InputError> {
+/// Every solver setting against its range, and the trust-region rule's
+/// ordering (ρ0 < ρ1 < ρ2, r_min ≤ r_initial ≤ r_max).
+pub fn solver(s: &SolverSettings) -> Result<(), InputError> {
     count_in_range("solver.max_iterations", s.max_iterations, MAX_ITERATIONS)?;
     count_in_range(
         "solver.direct.max_iterations",
@@ -398,7 +399,53 @@ fn solver(s: &SolverSettings) -> Result<(), InputError> {
             s.landing_velocity_tolerance_mps,
             LANDING_VELOCITY_TOLERANCE,
         ),
-    ])
+    ])?;
+    solver_consistency(s)
+}
+
+/// The trust-region update rule of Mao, Szmuk and Açıkmeşe (2016):
+/// ρ0 < ρ1 < ρ2 and r_min ≤ r_initial ≤ r_max.
+fn solver_consistency(sv: &SolverSettings) -> Result<(), InputError> {
+    let checks: [(bool, &str, f64, String); 4] = [
+        (
+            sv.rho0 < sv.rho1,
+            "solver.rho1",
+            sv.rho1,
+            format!("must be greater than solver.rho0 = {}", sv.rho0),
+        ),
+        (
+            sv.rho1 < sv.rho2,
+            "solver.rho2",
+            sv.rho2,
+            format!("must be greater than solver.rho1 = {}", sv.rho1),
+        ),
+        (
+            sv.trust_region_min <= sv.trust_region_initial,
+            "solver.trust_region_initial",
+            sv.trust_region_initial,
+            format!(
+                "must be at least solver.trust_region_min = {}",
+                sv.trust_region_min
+            ),
+        ),
+        (
+            sv.trust_region_initial <= sv.trust_region_max,
+            "solver.trust_region_initial",
+            sv.trust_region_initial,
+            format!(
+                "must be at most solver.trust_region_max = {}",
+                sv.trust_region_max
+            ),
+        ),
+    ];
+    match checks.into_iter().find(|(ok, ..)| !ok) {
+        Some((_, field, value, reason)) => Err(InputError::Inconsistent {
+            field: field.into(),
+            value,
+            reason,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Cross-field conditions. All values are finite here (the range pass ran
@@ -409,21 +456,18 @@ fn solver(s: &SolverSettings) -> Result<(), InputError> {
 /// - l_cp ≤ l_s: measured along the body from the gimbal, it lies on the
 ///   body; l_cg within [`CG_FRACTION_MIN`]·l_s of either end (see there);
 /// - |δ(t0)| ≤ δ_max: the initial state must satisfy the gimbal bound;
-/// - z(t0) > z(t_f): the burn starts above the landing point;
-/// - ρ0 < ρ1 < ρ2 and r_min ≤ r_initial ≤ r_max: the trust-region update rule
-///   of Mao, Szmuk and Açıkmeşe (2016).
+/// - z(t0) > z(t_f): the burn starts above the landing point.
 fn consistency(s: &Scenario) -> Result<(), InputError> {
     let v = &s.vehicle;
     let i = &s.initial;
     let t = &s.terminal;
     let d = &s.discretization;
-    let sv = &s.solver;
     let (cg_lo, cg_hi) = (
         CG_FRACTION_MIN * v.length_m,
         (1.0 - CG_FRACTION_MIN) * v.length_m,
     );
 
-    let checks: [(bool, &str, f64, String); 11] = [
+    let checks: [(bool, &str, f64, String); 7] = [
         (
             v.min_thrust_n <= v.max_thrust_n,
             "vehicle.min_thrust_n",
@@ -486,36 +530,6 @@ fn consistency(s: &Scenario) -> Result<(), InputError> {
             format!(
                 "must be above terminal.z_m = {} m (the burn starts above the landing point)",
                 t.z_m
-            ),
-        ),
-        (
-            sv.rho0 < sv.rho1,
-            "solver.rho1",
-            sv.rho1,
-            format!("must be greater than solver.rho0 = {}", sv.rho0),
-        ),
-        (
-            sv.rho1 < sv.rho2,
-            "solver.rho2",
-            sv.rho2,
-            format!("must be greater than solver.rho1 = {}", sv.rho1),
-        ),
-        (
-            sv.trust_region_min <= sv.trust_region_initial,
-            "solver.trust_region_initial",
-            sv.trust_region_initial,
-            format!(
-                "must be at least solver.trust_region_min = {}",
-                sv.trust_region_min
-            ),
-        ),
-        (
-            sv.trust_region_initial <= sv.trust_region_max,
-            "solver.trust_region_initial",
-            sv.trust_region_initial,
-            format!(
-                "must be at most solver.trust_region_max = {}",
-                sv.trust_region_max
             ),
         ),
     ];

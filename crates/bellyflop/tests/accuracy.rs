@@ -4,14 +4,14 @@
 
 use bellyflop::propagate::{propagate, Options};
 use bellyflop::scvx::Silent;
-use bellyflop::{solve, Method, Scenario, Solution, Status};
+use bellyflop::{Case, Method, Solution, Status};
 
-fn paper(method: Method, edit: impl FnOnce(&mut Scenario)) -> (Scenario, Solution) {
-    let mut s = Scenario::paper();
+fn paper(method: Method, edit: impl FnOnce(&mut Case)) -> (Case, Solution) {
+    let mut s = Case::paper();
     s.solver.method = method;
     edit(&mut s);
     s.validate().expect("test scenario is valid");
-    let sol = solve(&s, &mut Silent);
+    let sol = s.solve(&mut Silent);
     (s, sol)
 }
 
@@ -22,7 +22,7 @@ fn paper_case_meets_the_default_tolerances_with_margin() {
     for method in [Method::Direct, Method::Scvx] {
         let (s, sol) = paper(method, |_| ());
         assert_eq!(sol.status, Status::Solved, "{method:?}: {}", sol.message);
-        let e = propagate(&s, &sol, &Options::default())
+        let e = propagate(&s.scenario, &sol, &Options::default())
             .unwrap()
             .landing_error;
         assert!(
@@ -49,7 +49,7 @@ fn a_miss_beyond_the_tolerance_is_inaccurate() {
         assert_eq!(sol.status.exit_code(), 9);
         assert_eq!(sol.status.as_str(), "inaccurate");
         assert_eq!(sol.to_json()["status"], "inaccurate");
-        let e = propagate(&s, &sol, &Options::default())
+        let e = propagate(&s.scenario, &sol, &Options::default())
             .unwrap()
             .landing_error;
         assert!(
@@ -78,14 +78,14 @@ fn a_miss_beyond_the_tolerance_is_inaccurate() {
 /// re-integrate: only `bellyflop::solve` gives the verdict.
 #[test]
 fn the_methods_alone_are_unaffected() {
-    let mut s = Scenario::paper();
+    let mut s = Case::paper();
     s.solver.landing_position_tolerance_m = 0.1;
     assert_eq!(
-        bellyflop::scvx::solve(&s, &mut Silent).status,
+        bellyflop::scvx::solve(&s.scenario, &s.solver, &mut Silent).status,
         Status::Solved
     );
     assert_eq!(
-        bellyflop::direct::solve(&s, &mut Silent).status,
+        bellyflop::direct::solve(&s.scenario, &s.solver, &mut Silent).status,
         Status::Solved
     );
 }

@@ -8,26 +8,26 @@
 use bellyflop::direct::{self, DirectSettings};
 use bellyflop::nlp::Nlp;
 use bellyflop::scvx::Silent;
-use bellyflop::{solve, Method, Scenario, Solution, Status};
+use bellyflop::{Case, Method, Solution, Status};
 
-fn direct_paper(edit: impl FnOnce(&mut Scenario)) -> Solution {
-    let mut s = Scenario::paper();
+fn direct_paper(edit: impl FnOnce(&mut Case)) -> Solution {
+    let mut s = Case::paper();
     s.solver.method = Method::Direct;
     edit(&mut s);
     s.validate().expect("test scenario is valid");
-    solve(&s, &mut Silent)
+    s.solve(&mut Silent)
 }
 
 /// The method alone (no certificate, no accuracy check): these tests compare
 /// the transcription's optimum with IPOPT's, whether or not its controls land
 /// within the tolerances once re-integrated (the dispersed states at N = 20
 /// miss by 0.6 to 21 m; `tests/accuracy.rs` and `tests/labelled.rs` judge that).
-fn direct_alone(edit: impl FnOnce(&mut Scenario)) -> Solution {
-    let mut s = Scenario::paper();
+fn direct_alone(edit: impl FnOnce(&mut Case)) -> Solution {
+    let mut s = Case::paper();
     s.solver.method = Method::Direct;
     edit(&mut s);
     s.validate().expect("test scenario is valid");
-    direct::solve(&s, &mut Silent)
+    direct::solve(&s.scenario, &s.solver, &mut Silent)
 }
 
 /// Solved, on IPOPT's optimum within 0.1 kg, and meets the collocation
@@ -59,14 +59,14 @@ fn assert_reference(sol: &Solution, mass_kg: f64, tf_s: f64, what: &str) {
 #[test]
 fn paper_case_reaches_the_ipopt_optimum_at_n20_and_n40() {
     for (n, mass, tf) in [(20, 114_569.455, 11.56895), (40, 114_575.296, 11.56058)] {
-        let sol = direct_alone(|s| s.discretization.nodes = n);
+        let sol = direct_alone(|s| s.scenario.discretization.nodes = n);
         assert_reference(&sol, mass, tf, &format!("N = {n}"));
     }
 }
 
 #[test]
 fn hp_mesh_reaches_the_ipopt_optimum() {
-    let sol = direct_alone(|s| s.discretization.intervals = 4);
+    let sol = direct_alone(|s| s.scenario.discretization.intervals = 4);
     assert_reference(&sol, 114_574.792, 11.56338, "N = 20, M = 4");
 }
 
@@ -107,10 +107,10 @@ fn six_dispersed_states_reach_the_ipopt_optimum() {
     ];
     for (x, mass, tf) in cases {
         let sol = direct_alone(|s| {
-            let i = &mut s.initial;
+            let i = &mut s.scenario.initial;
             (i.x_m, i.z_m, i.vx_mps, i.vz_mps, i.theta_deg, i.mass_kg) =
                 (x[0], x[1], x[2], x[3], x[4], x[5]);
-            s.discretization.final_mass_guess_kg = x[5] - 5000.0;
+            s.scenario.discretization.final_mass_guess_kg = x[5] - 5000.0;
         });
         assert_reference(&sol, mass, tf, &format!("{x:?}"));
         // IPOPT's t_f agrees to 5e-4 s on these (the optimum is flat in t_f).
@@ -122,10 +122,10 @@ fn six_dispersed_states_reach_the_ipopt_optimum() {
 /// certificate and does not solve.
 #[test]
 fn too_low_to_stop_is_infeasible_with_a_reason() {
-    let mut s = Scenario::paper();
+    let mut s = Case::paper();
     s.solver.method = Method::Direct;
-    s.initial.z_m = 100.0;
-    let alone = direct::solve(&s, &mut Silent);
+    s.scenario.initial.z_m = 100.0;
+    let alone = direct::solve(&s.scenario, &s.solver, &mut Silent);
     assert_eq!(alone.status, Status::Infeasible, "{}", alone.message);
     assert!(
         alone.message.contains("locally infeasible"),
@@ -133,7 +133,7 @@ fn too_low_to_stop_is_infeasible_with_a_reason() {
         alone.message
     );
     assert!(alone.trajectory.is_finite());
-    let sol = direct_paper(|s| s.initial.z_m = 100.0);
+    let sol = direct_paper(|s| s.scenario.initial.z_m = 100.0);
     assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
     assert!(
         sol.message.starts_with(
@@ -220,12 +220,12 @@ fn history_records_the_interior_point_iterations() {
 /// A warm start from the solution with its multipliers converges at once.
 #[test]
 fn warm_start_from_the_answer_converges_in_a_few_iterations() {
-    let mut s = Scenario::paper();
+    let mut s = Case::paper();
     s.solver.method = Method::Direct;
-    let nlp = Nlp::new(&s);
+    let nlp = Nlp::new(&s.scenario, &s.solver);
     let w0 = nlp.straight_line(
-        s.discretization.tf_guess_s,
-        s.discretization.final_mass_guess_kg,
+        s.scenario.discretization.tf_guess_s,
+        s.scenario.discretization.final_mass_guess_kg,
     );
     let cold = direct::solve_nlp(&nlp, &w0, None, &DirectSettings::default(), &mut Silent);
     assert_eq!(cold.status, Status::Solved);
@@ -263,15 +263,15 @@ fn adaptive_barrier_rule_reaches_the_same_optimum() {
 /// the margin's band wherever the margin is not worth its cost.
 #[test]
 fn soft_margin_and_terminal_reach_the_scvx_optimum() {
-    let soft = |s: &mut Scenario| {
+    let soft = |s: &mut Case| {
         s.solver.thrust_margin_frac = 0.1;
         s.solver.thrust_margin_weight = 100.0;
         s.solver.terminal_lateral_weight = 1000.0;
     };
     let d = direct_alone(soft);
-    let mut s = Scenario::paper();
+    let mut s = Case::paper();
     soft(&mut s);
-    let c = bellyflop::scvx::solve(&s, &mut Silent);
+    let c = bellyflop::scvx::solve(&s.scenario, &s.solver, &mut Silent);
     assert_eq!(d.status, Status::Solved, "{}", d.message);
     assert_eq!(c.status, Status::Solved, "{}", c.message);
     assert!(
@@ -280,9 +280,9 @@ fn soft_margin_and_terminal_reach_the_scvx_optimum() {
         d.final_mass_kg,
         c.final_mass_kg
     );
-    let hard = Scenario::paper();
+    let hard = Case::paper();
     assert!(d.final_mass_kg < direct_alone(|_| ()).final_mass_kg - 100.0);
-    let t_max = hard.vehicle.max_thrust_n;
+    let t_max = hard.scenario.vehicle.max_thrust_n;
     let band = 0.9 * t_max;
     let peak = d.thrust_n[..d.nodes].iter().fold(0.0f64, |a, &t| a.max(t));
     assert!(peak <= t_max && peak > band - 1.0, "peak thrust {peak} N");

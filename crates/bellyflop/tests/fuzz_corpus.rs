@@ -159,7 +159,7 @@ fn seeded_mutants_of_the_corpus_never_panic() {
     // the solvers, not only the parser and validation.
     let valid: Vec<usize> = (0..files.len())
         .filter(|&i| {
-            std::str::from_utf8(all[i]).is_ok_and(|t| bellyflop::Scenario::from_toml_str(t).is_ok())
+            std::str::from_utf8(all[i]).is_ok_and(|t| bellyflop::Case::from_toml_str(t).is_ok())
         })
         .collect();
     assert!(valid.len() >= 8, "{} valid corpus files", valid.len());

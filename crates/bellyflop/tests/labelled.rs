@@ -46,27 +46,27 @@ fn every_label_holds() {
             Label::Feasible => {
                 let method = e.method.expect("checked by the_set_is_large_and_mixed");
                 let s = scenario(&e, method);
-                let bound = feasibility::stopping_bound(&s);
+                let bound = feasibility::stopping_bound(&s.scenario);
                 assert!(
-                    feasibility::certify(&s).is_none(),
+                    feasibility::certify(&s.scenario).is_none(),
                     "{}: a feasible state is certified infeasible ({bound:?})",
                     e.name
                 );
-                let sol = bellyflop::solve(&s, &mut Silent);
+                let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
                 assert_ne!(sol.status, Status::Infeasible, "{}", e.name);
                 assert_eq!(
                     sol.status,
                     Status::Solved,
                     "{} ({method:?}, N = {}): {}",
                     e.name,
-                    s.discretization.nodes,
+                    s.scenario.discretization.nodes,
                     sol.message
                 );
             }
             Label::Infeasible => {
                 for method in [Method::Direct, Method::Scvx] {
                     let s = scenario(&e, method);
-                    let certificate = feasibility::certify(&s);
+                    let certificate = feasibility::certify(&s.scenario);
                     assert!(
                         matches!(
                             certificate,
@@ -74,9 +74,9 @@ fn every_label_holds() {
                         ),
                         "{}: not certified ({:?})",
                         e.name,
-                        feasibility::stopping_bound(&s)
+                        feasibility::stopping_bound(&s.scenario)
                     );
-                    let sol = bellyflop::solve(&s, &mut Silent);
+                    let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
                     assert_eq!(sol.status, Status::Infeasible, "{}", e.name);
                     assert_eq!(sol.iterations, 0, "{}: solved although certified", e.name);
                     assert_eq!(sol.method, method);

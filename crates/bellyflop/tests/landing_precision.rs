@@ -4,22 +4,22 @@
 
 use bellyflop::propagate::{propagate, Interpolation, Options, Propagation};
 use bellyflop::scvx::Silent;
-use bellyflop::{solve, Formulation, Scenario, Status};
+use bellyflop::{Case, Formulation, Status};
 
 const MAX_POSITION_M: f64 = 2.0;
 const MAX_VELOCITY_MPS: f64 = 0.5;
 
 fn propagate_paper_case(form: Formulation, interpolation: Interpolation) -> Propagation {
-    let mut s = Scenario::paper();
-    s.discretization.nodes = 20;
+    let mut s = Case::paper();
+    s.scenario.discretization.nodes = 20;
     s.solver.formulation = form;
-    let sol = solve(&s, &mut Silent);
+    let sol = s.solve(&mut Silent);
     assert_eq!(sol.status, Status::Solved, "{form:?}: {}", sol.message);
     let opts = Options {
         interpolation,
         ..Options::default()
     };
-    let p = propagate(&s, &sol, &opts).expect("the propagation runs");
+    let p = propagate(&s.scenario, &sol, &opts).expect("the propagation runs");
     // The mass equation does not depend on the attitude: the propagated fuel
     // agrees with the optimized one to well under a kilogram.
     assert!(

@@ -1,18 +1,17 @@
 //! The core optimizer against the paper's numbers (issue 2, "Must show").
 
-use bellyflop::scvx::solve;
 use bellyflop::scvx::Silent;
-use bellyflop::{Formulation, Scenario, Solution, Status};
+use bellyflop::{Case, Formulation, Scenario, Solution, Status};
 
 /// Table 3, SCvx row.
 const PAPER_TF_S: f64 = 11.5666;
 const PAPER_MF_KG: f64 = 114_568.6;
 
-fn solve_paper(edit: impl FnOnce(&mut Scenario)) -> Solution {
-    let mut s = Scenario::paper();
+fn solve_paper(edit: impl FnOnce(&mut Case)) -> Solution {
+    let mut s = Case::paper();
     edit(&mut s);
     s.validate().expect("test scenario is valid");
-    solve(&s, &mut Silent)
+    bellyflop::scvx::solve(&s.scenario, &s.solver, &mut Silent)
 }
 
 /// A converged solution meets the nonlinear problem: no virtual control,
@@ -122,8 +121,8 @@ fn converges_for_every_n_and_tf_guess() {
     for n in [10, 15, 20, 30, 40] {
         for tf in [8.0, 12.0, 16.0, 20.0] {
             let sol = solve_paper(|s| {
-                s.discretization.nodes = n;
-                s.discretization.tf_guess_s = tf;
+                s.scenario.discretization.nodes = n;
+                s.scenario.discretization.tf_guess_s = tf;
             });
             let what = format!("N = {n}, t_f guess {tf} s");
             assert_physical(&sol, &what);
@@ -160,13 +159,13 @@ fn dispersed() -> Vec<[f64; 6]> {
 fn dispersed_initial_states_are_physical() {
     for d in dispersed() {
         let sol = solve_paper(|s| {
-            s.initial.x_m = d[0];
-            s.initial.z_m = d[1];
-            s.initial.vx_mps = d[2];
-            s.initial.vz_mps = d[3];
-            s.initial.theta_deg = d[4];
-            s.initial.mass_kg = d[5];
-            s.discretization.final_mass_guess_kg = d[5] - 5_000.0;
+            s.scenario.initial.x_m = d[0];
+            s.scenario.initial.z_m = d[1];
+            s.scenario.initial.vx_mps = d[2];
+            s.scenario.initial.vz_mps = d[3];
+            s.scenario.initial.theta_deg = d[4];
+            s.scenario.initial.mass_kg = d[5];
+            s.scenario.discretization.final_mass_guess_kg = d[5] - 5_000.0;
         });
         assert_physical(&sol, &format!("{d:?}"));
     }
@@ -174,12 +173,12 @@ fn dispersed_initial_states_are_physical() {
 
 /// `bellyflop::solve` of an edited paper case with SCvx (certificate and
 /// accuracy check included, unlike [`solve_paper`]).
-fn claim_paper(edit: impl FnOnce(&mut Scenario)) -> Solution {
-    let mut s = Scenario::paper();
+fn claim_paper(edit: impl FnOnce(&mut Case)) -> Solution {
+    let mut s = Case::paper();
     s.solver.method = bellyflop::Method::Scvx;
     edit(&mut s);
     s.validate().expect("test scenario is valid");
-    bellyflop::solve(&s, &mut Silent)
+    bellyflop::solve(&s.scenario, &s.solver, &mut Silent)
 }
 
 #[test]
@@ -187,10 +186,10 @@ fn too_low_and_too_fast_is_infeasible() {
     // 100 m up at 85 m/s: even T_max plus drag cannot stop the fall. SCvx
     // alone settles locally infeasible; the stopping bound proves it (at
     // least 238.8 m are needed), so `bellyflop::solve` says so without solving.
-    let sol = solve_paper(|s| s.initial.z_m = 100.0);
+    let sol = solve_paper(|s| s.scenario.initial.z_m = 100.0);
     assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
     assert!(sol.message.contains("no trajectory"), "{}", sol.message);
-    let claim = claim_paper(|s| s.initial.z_m = 100.0);
+    let claim = claim_paper(|s| s.scenario.initial.z_m = 100.0);
     assert_eq!(claim.status, Status::Infeasible, "{}", claim.message);
     assert_eq!(claim.iterations, 0);
     assert!(
@@ -203,9 +202,9 @@ fn too_low_and_too_fast_is_infeasible() {
 
 #[test]
 fn too_little_propellant_is_infeasible() {
-    let low = |s: &mut Scenario| {
-        s.initial.mass_kg = 86_000.0;
-        s.discretization.final_mass_guess_kg = 85_500.0;
+    let low = |s: &mut Case| {
+        s.scenario.initial.mass_kg = 86_000.0;
+        s.scenario.discretization.final_mass_guess_kg = 85_500.0;
     };
     let sol = solve_paper(low);
     assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
@@ -232,9 +231,9 @@ fn iteration_limit_returns_not_converged_with_best_iterate() {
 }
 
 /// The engine of a plan with a hard thrust margin μ: [T_min(1+μ), T_max(1−μ)].
-fn hard_margin(s: &mut Scenario, mu: f64) {
-    s.vehicle.min_thrust_n *= 1.0 + mu;
-    s.vehicle.max_thrust_n *= 1.0 - mu;
+fn hard_margin(s: &mut Case, mu: f64) {
+    s.scenario.vehicle.min_thrust_n *= 1.0 + mu;
+    s.scenario.vehicle.max_thrust_n *= 1.0 - mu;
 }
 
 /// Where a plan can keep its thrust margin, the soft margin
@@ -263,7 +262,7 @@ fn soft_thrust_margin_is_kept_where_it_can_be() {
 /// thrust and meets every physical check.
 #[test]
 fn soft_thrust_margin_gives_way_where_it_must() {
-    let behind = |s: &mut Scenario| {
+    let behind = |s: &mut Case| {
         replan_at(
             s,
             [
@@ -294,8 +293,8 @@ const GATE: [f64; 6] = [0.0, 3.0, 0.0, -2.0, 0.0, 0.0];
 /// A closed-loop re-plan as `guidance` sets it up: from state (x, z, Vx,
 /// Vz [m, m/s], θ \[deg\], w [deg/s], m \[kg\], δ \[deg\]) to the gate, in a wind
 /// [m/s], with the 20 % nozzle margin, on N = 10 points.
-fn replan_at(s: &mut Scenario, x: [f64; 8], wind_mps: f64) {
-    s.initial = bellyflop::scenario::InitialState {
+fn replan_at(s: &mut Case, x: [f64; 8], wind_mps: f64) {
+    s.scenario.initial = bellyflop::scenario::InitialState {
         x_m: x[0],
         z_m: x[1],
         vx_mps: x[2],
@@ -305,14 +304,14 @@ fn replan_at(s: &mut Scenario, x: [f64; 8], wind_mps: f64) {
         mass_kg: x[6],
         gimbal_deg: x[7],
     };
-    s.terminal.z_m = GATE[1];
-    s.terminal.vz_mps = GATE[3];
-    s.environment.wind_x_mps = wind_mps;
-    s.vehicle.max_gimbal_deg = 16.0;
-    s.vehicle.max_gimbal_rate_degps = 16.0;
-    s.discretization.nodes = 10;
-    s.discretization.tf_guess_s = 3.0;
-    s.discretization.final_mass_guess_kg = x[6] - 1000.0;
+    s.scenario.terminal.z_m = GATE[1];
+    s.scenario.terminal.vz_mps = GATE[3];
+    s.scenario.environment.wind_x_mps = wind_mps;
+    s.scenario.vehicle.max_gimbal_deg = 16.0;
+    s.scenario.vehicle.max_gimbal_rate_degps = 16.0;
+    s.scenario.discretization.nodes = 10;
+    s.scenario.discretization.tf_guess_s = 3.0;
+    s.scenario.discretization.final_mass_guess_kg = x[6] - 1000.0;
 }
 
 /// A dispersed run 2.5 s before the gate, still 2 m short of the pad but
@@ -321,7 +320,7 @@ fn replan_at(s: &mut Scenario, x: [f64; 8], wind_mps: f64) {
 /// the plan meets everything else and misses by a little.
 #[test]
 fn soft_terminal_lateral_returns_a_small_miss() {
-    let overshooting = |s: &mut Scenario| {
+    let overshooting = |s: &mut Case| {
         replan_at(
             s,
             [
@@ -364,9 +363,9 @@ fn planned(
     bellyflop::replan::Planner,
     bellyflop::scenario::InitialState,
 ) {
-    let mut s = Scenario::paper();
-    s.discretization.nodes = n;
-    let mut planner = bellyflop::replan::Planner::new(s);
+    let mut s = Case::paper();
+    s.scenario.discretization.nodes = n;
+    let mut planner = bellyflop::replan::Planner::new(s.scenario, s.solver);
     // The SCvx warm re-plan (the scenario's default method is direct).
     planner.method = bellyflop::Method::Scvx;
     let cold = planner.cold(&mut Silent);
@@ -401,7 +400,7 @@ fn warm_replan_converges_in_a_few_iterations() {
         let mut s2 = planner.scenario.clone();
         s2.initial = state;
         s2.discretization.tf_guess_s = tf_s - 0.5;
-        let direct = solve(&s2, &mut Silent);
+        let direct = bellyflop::scvx::solve(&s2, &planner.settings, &mut Silent);
         assert_eq!(direct.status, Status::Solved, "{what}: direct");
         assert!(
             (warm.final_mass_kg - direct.final_mass_kg).abs() < 0.5,
@@ -438,11 +437,11 @@ fn warm_replan_counts_both_phases() {
 #[test]
 fn second_order_correction_removes_the_linearization_error() {
     use bellyflop::transcription::Transcription;
-    let mut s = Scenario::paper();
+    let mut s = Case::paper();
     s.solver.relaxed_first_iterations = 0;
-    let plan = solve(&s, &mut Silent);
+    let plan = bellyflop::scvx::solve(&s.scenario, &s.solver, &mut Silent);
     assert_eq!(plan.status, Status::Solved);
-    let tr = Transcription::new(&s);
+    let tr = Transcription::new(&s.scenario, &s.solver);
     let data = tr.assemble(&plan.trajectory, 0.05, 0.0);
     let sub = tr.solve(&data).expect("subproblem solves");
     let max_defect = |t: &bellyflop::transcription::Trajectory| {
@@ -492,13 +491,13 @@ fn second_order_correction_removes_the_linearization_error() {
 fn dispersed_state_reaches_the_nlp_reference() {
     const IPOPT_MF_KG: f64 = 112_129.7;
     let sol = solve_paper(|s| {
-        s.initial.x_m = 0.0;
-        s.initial.z_m = 650.0;
-        s.initial.vx_mps = 0.0;
-        s.initial.vz_mps = -80.0;
-        s.initial.theta_deg = 88.0;
-        s.initial.mass_kg = 118_000.0;
-        s.discretization.final_mass_guess_kg = 113_000.0;
+        s.scenario.initial.x_m = 0.0;
+        s.scenario.initial.z_m = 650.0;
+        s.scenario.initial.vx_mps = 0.0;
+        s.scenario.initial.vz_mps = -80.0;
+        s.scenario.initial.theta_deg = 88.0;
+        s.scenario.initial.mass_kg = 118_000.0;
+        s.scenario.discretization.final_mass_guess_kg = 113_000.0;
     });
     assert_physical(&sol, "dispersed state (0, 650, 0, -80, 88, 118000)");
     let gap = (sol.final_mass_kg - IPOPT_MF_KG).abs() / IPOPT_MF_KG;
@@ -515,7 +514,7 @@ fn dispersed_state_reaches_the_nlp_reference() {
 /// the ground tolerance.
 #[test]
 fn micrometre_dip_below_the_pad_is_solved() {
-    let sol = solve_paper(|s| s.vehicle.cp_m = 45.0);
+    let sol = solve_paper(|s| s.scenario.vehicle.cp_m = 45.0);
     assert!(
         sol.checks.min_altitude_margin_m < 0.0,
         "no dip any more: {:?}",
@@ -530,7 +529,7 @@ fn micrometre_dip_below_the_pad_is_solved() {
 /// thrust_n was 2,209,399 N against T_min = 2,210,000 N, unchecked).
 #[test]
 fn every_reported_thrust_is_within_its_bounds() {
-    let sol = solve_paper(|s| s.vehicle.min_thrust_n = s.vehicle.max_thrust_n);
+    let sol = solve_paper(|s| s.scenario.vehicle.min_thrust_n = s.scenario.vehicle.max_thrust_n);
     assert_feasible(&sol, "T_min = T_max");
     let t_max = Scenario::paper().vehicle.max_thrust_n;
     let tol = bellyflop::scvx::THRUST_TOLERANCE_FRAC * t_max;
@@ -557,7 +556,7 @@ fn every_reported_thrust_is_within_its_bounds() {
 /// fine mesh the message keeps its claim about the problem.
 #[test]
 fn coarse_mesh_infeasibility_suggests_more_nodes() {
-    let sol = solve_paper(|s| s.discretization.nodes = 4);
+    let sol = solve_paper(|s| s.scenario.discretization.nodes = 4);
     assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
     assert!(
         sol.message
@@ -566,7 +565,7 @@ fn coarse_mesh_infeasibility_suggests_more_nodes() {
         "{}",
         sol.message
     );
-    let fine = solve_paper(|s| s.initial.z_m = 100.0);
+    let fine = solve_paper(|s| s.scenario.initial.z_m = 100.0);
     assert_eq!(fine.status, Status::Infeasible, "{}", fine.message);
     assert!(!fine.message.contains("more nodes"), "{}", fine.message);
     assert!(
@@ -578,7 +577,7 @@ fn coarse_mesh_infeasibility_suggests_more_nodes() {
     // No certificate covers N = 4 (the paper's case solves from N = 5 on):
     // `bellyflop::solve` says that none was found, why, and that
     // infeasibility is not proven.
-    let claim = claim_paper(|s| s.discretization.nodes = 4);
+    let claim = claim_paper(|s| s.scenario.discretization.nodes = 4);
     assert_eq!(claim.status, Status::NotConverged, "{}", claim.message);
     assert_eq!(claim.status.exit_code(), 4);
     assert!(

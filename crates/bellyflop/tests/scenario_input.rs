@@ -1,7 +1,7 @@
 //! Scenario input: parsing, validation and the error messages for bad input.
 
 use bellyflop::scenario::PAPER_TOML;
-use bellyflop::{Formulation, InputError, Scenario};
+use bellyflop::{Case, Formulation, InputError};
 
 /// PAPER_TOML with `from` (which must occur exactly once) replaced by `to`.
 fn paper_with(from: &str, to: &str) -> String {
@@ -23,7 +23,7 @@ fn line_of(text: &str, prefix: &str) -> usize {
 
 /// Parse `text`, expecting an out-of-range error; return (field, value, allowed, display).
 fn out_of_range(text: &str) -> (String, f64, String, String) {
-    match Scenario::from_toml_str(text) {
+    match Case::from_toml_str(text) {
         Err(e @ InputError::OutOfRange { .. }) => {
             let display = e.to_string();
             let InputError::OutOfRange {
@@ -42,7 +42,7 @@ fn out_of_range(text: &str) -> (String, f64, String, String) {
 
 /// Parse `text`, expecting an inconsistency error; return (field, value, reason, display).
 fn inconsistent(text: &str) -> (String, f64, String, String) {
-    match Scenario::from_toml_str(text) {
+    match Case::from_toml_str(text) {
         Err(e @ InputError::Inconsistent { .. }) => {
             let display = e.to_string();
             let InputError::Inconsistent {
@@ -61,7 +61,7 @@ fn inconsistent(text: &str) -> (String, f64, String, String) {
 
 /// Parse `text`, expecting a TOML error; return (line, column, message, display).
 fn toml_error(text: &str) -> (usize, usize, String, String) {
-    match Scenario::from_toml_str(text) {
+    match Case::from_toml_str(text) {
         Err(e @ InputError::Toml { .. }) => {
             let display = e.to_string();
             let InputError::Toml {
@@ -81,13 +81,13 @@ fn toml_error(text: &str) -> (usize, usize, String, String) {
 
 #[test]
 fn paper_scenario_parses_and_validates_with_table_1_values() {
-    let s = Scenario::from_toml_str(PAPER_TOML).expect("paper.toml is valid");
-    assert_eq!(s, Scenario::paper());
+    let s = Case::from_toml_str(PAPER_TOML).expect("paper.toml is valid");
+    assert_eq!(s, Case::paper());
     assert!(s.validate().is_ok());
-    assert_eq!(s.name, "paper");
+    assert_eq!(s.scenario.name, "paper");
 
     // Table 1.
-    let v = &s.vehicle;
+    let v = &s.scenario.vehicle;
     assert_eq!(v.dry_mass_kg, 85_000.0);
     assert_eq!(v.length_m, 50.0);
     assert_eq!(v.radius_m, 4.5);
@@ -99,17 +99,17 @@ fn paper_scenario_parses_and_validates_with_table_1_values() {
     assert_eq!(v.max_gimbal_deg, 20.0);
     assert_eq!(v.max_gimbal_rate_degps, 20.0);
     assert_eq!(v.drag_coefficient_kgpm, 195.52);
-    assert_eq!(s.environment.g0_mps2, 9.81);
+    assert_eq!(s.scenario.environment.g0_mps2, 9.81);
 
     // Section 4 boundary conditions.
-    let i = &s.initial;
+    let i = &s.scenario.initial;
     assert_eq!(
         (i.x_m, i.z_m, i.vx_mps, i.vz_mps),
         (100.0, 600.0, 0.0, -85.0)
     );
     assert_eq!((i.theta_deg, i.pitch_rate_degps), (90.0, 0.0));
     assert_eq!((i.mass_kg, i.gimbal_deg), (120_000.0, 0.0));
-    let t = &s.terminal;
+    let t = &s.scenario.terminal;
     assert_eq!(
         (
             t.x_m,
@@ -122,7 +122,7 @@ fn paper_scenario_parses_and_validates_with_table_1_values() {
         (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     );
 
-    assert_eq!(s.discretization.nodes, 20);
+    assert_eq!(s.scenario.discretization.nodes, 20);
     assert_eq!(s.solver.formulation, Formulation::Exact);
     assert_eq!(s.solver.max_iterations, 100);
 }
@@ -132,7 +132,7 @@ fn default_solver_settings_validate() {
     // The [solver] table is optional; its defaults must pass validation.
     let start = PAPER_TOML.find("[solver]").unwrap();
     let without_solver = &PAPER_TOML[..start];
-    let s = Scenario::from_toml_str(without_solver).expect("defaults are valid");
+    let s = Case::from_toml_str(without_solver).expect("defaults are valid");
     assert_eq!(s.solver, bellyflop::scenario::SolverSettings::default());
 }
 
@@ -230,7 +230,7 @@ fn node_count_outside_4_to_100_is_out_of_range() {
     for (n, ok) in [(0, false), (3, false), (4, true), (100, true), (101, false)] {
         let text = paper_with("nodes = 20 ", &format!("nodes = {n} "));
         if ok {
-            assert!(Scenario::from_toml_str(&text).is_ok(), "N = {n}");
+            assert!(Case::from_toml_str(&text).is_ok(), "N = {n}");
             continue;
         }
         let (field, value, allowed, display) = out_of_range(&text);
@@ -379,7 +379,7 @@ fn terminal_altitude_below_ground_is_out_of_range() {
 #[test]
 fn empty_name_is_rejected() {
     for name in ["\"\"", "\"  \""] {
-        let e = Scenario::from_toml_str(&paper_with("name = \"paper\"", &format!("name = {name}")))
+        let e = Case::from_toml_str(&paper_with("name = \"paper\"", &format!("name = {name}")))
             .unwrap_err();
         assert_eq!(
             e,
@@ -449,7 +449,7 @@ fn every_numeric_field_rejects_non_finite_and_absurd_values() {
                 }
                 None => format!("{PAPER_TOML}{key} = {value}\n"),
             };
-            let result = std::panic::catch_unwind(|| Scenario::from_toml_str(&text));
+            let result = std::panic::catch_unwind(|| Case::from_toml_str(&text));
             let result = result.unwrap_or_else(|_| panic!("{dotted} = {value} panicked"));
             match result {
                 Err(InputError::OutOfRange { field, .. }) => {
@@ -493,8 +493,8 @@ fn smallest_gimbal_limits_assemble_and_solve_one_subproblem() {
         "max_gimbal_rate_degps = 0.1",
         1,
     );
-    let s = Scenario::from_toml_str(&text).expect("0.1 deg and 0.1 deg/s are accepted");
-    let tr = bellyflop::transcription::Transcription::new(&s);
+    let s = Case::from_toml_str(&text).expect("0.1 deg and 0.1 deg/s are accepted");
+    let tr = bellyflop::transcription::Transcription::new(&s.scenario, &s.solver);
     let guess = bellyflop::scvx::straight_line(&tr, 12.0, 110_000.0);
     let data = tr.assemble(&guess, 0.3, 0.0);
     let mut conic = bellyflop::scvx::ConicSolver::new();
@@ -514,7 +514,7 @@ fn unworkable_virtual_control_weights_are_out_of_range() {
     }
     for value in ["1.0", "1e5"] {
         let text = format!("{PAPER_TOML}virtual_control_weight = {value}\n");
-        assert!(Scenario::from_toml_str(&text).is_ok(), "{value}");
+        assert!(Case::from_toml_str(&text).is_ok(), "{value}");
     }
 }
 
@@ -532,7 +532,7 @@ fn centre_of_mass_near_an_end_is_inconsistent() {
     }
     for cg in ["4.6", "25.0", "45.4"] {
         let text = paper_with("cg_m = 20.0", &format!("cg_m = {cg}"));
-        assert!(Scenario::from_toml_str(&text).is_ok(), "cg_m = {cg}");
+        assert!(Case::from_toml_str(&text).is_ok(), "cg_m = {cg}");
     }
 }
 

@@ -211,10 +211,14 @@ fn infeasibility_reason(tr: &Transcription, t: &Trajectory, vc: f64) -> String {
 /// K > 0 (the default), the paper's relaxation first, whose translational
 /// dynamics are linear in (Txm, Tzm), so that from a reasonable guess it
 /// converges in 5–8 iterations where the exact form needs 16–25.
-pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
+pub fn solve(
+    scenario: &Scenario,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+) -> Solution {
     let d = &scenario.discretization;
     let phases = Phases {
-        relaxed_iterations: scenario.solver.relaxed_first_iterations,
+        relaxed_iterations: settings.relaxed_first_iterations,
         // Measured with examples/convergence: the relaxed phase does best with
         // a trust region that grows readily. (The exact phase uses the
         // scenario's ρ1, ρ2, chosen with the second-order correction on.)
@@ -229,7 +233,7 @@ pub fn solve(scenario: &Scenario, observer: &mut dyn Observer) -> Solution {
     };
     let guess = |tr: &Transcription| straight_line(tr, d.tf_guess_s, d.final_mass_guess_kg);
     let mut conics = (ConicSolver::new(), ConicSolver::new());
-    phases.solve(scenario, &guess, &mut conics, observer)
+    phases.solve(scenario, settings, &guess, &mut conics, observer)
 }
 
 /// SCvx's relaxed-then-exact strategy, shared by cold solves ([`solve`]) and
@@ -257,37 +261,32 @@ impl<R: Fn(&mut SolverSettings), E: Fn(&mut SolverSettings)> Phases<R, E> {
     pub fn solve(
         &self,
         scenario: &Scenario,
+        settings: &SolverSettings,
         reference: &dyn Fn(&Transcription) -> Trajectory,
         conics: &mut (ConicSolver, ConicSolver),
         observer: &mut dyn Observer,
     ) -> Solution {
-        let max_iterations = scenario.solver.max_iterations;
+        let max_iterations = settings.max_iterations;
         let mut spent: Option<Solution> = None;
-        if scenario.solver.formulation == Formulation::Exact && self.relaxed_iterations > 0 {
-            let mut relaxed = scenario.clone();
-            relaxed.solver.formulation = Formulation::Paper;
-            relaxed.solver.max_iterations = self.relaxed_iterations.min(max_iterations);
-            (self.relaxed_tuning)(&mut relaxed.solver);
-            let tr = Transcription::new(&relaxed).without_ground_bound();
-            let first = solve_from_with(
-                &tr,
-                reference(&tr),
-                &relaxed.solver,
-                observer,
-                &mut conics.0,
-            );
+        if settings.formulation == Formulation::Exact && self.relaxed_iterations > 0 {
+            let mut relaxed = settings.clone();
+            relaxed.formulation = Formulation::Paper;
+            relaxed.max_iterations = self.relaxed_iterations.min(max_iterations);
+            (self.relaxed_tuning)(&mut relaxed);
+            let tr = Transcription::new(scenario, &relaxed).without_ground_bound();
+            let first = solve_from_with(&tr, reference(&tr), &relaxed, observer, &mut conics.0);
             if first.status == Status::Solved || first.iterations >= max_iterations {
                 return first;
             }
             spent = Some(first);
         }
-        let tr = Transcription::new(scenario);
-        let mut settings = scenario.solver.clone();
-        (self.exact_tuning)(&mut settings);
+        let tr = Transcription::new(scenario, settings);
+        let mut exact = settings.clone();
+        (self.exact_tuning)(&mut exact);
         if let Some(first) = &spent {
-            settings.max_iterations -= first.iterations;
+            exact.max_iterations -= first.iterations;
         }
-        let sol = solve_from_with(&tr, reference(&tr), &settings, observer, &mut conics.1);
+        let sol = solve_from_with(&tr, reference(&tr), &exact, observer, &mut conics.1);
         match spent {
             Some(first) => append_phase(first, sol),
             None => sol,

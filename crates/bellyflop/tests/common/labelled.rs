@@ -2,7 +2,7 @@
 //! `examples/labelled_report.rs` (each uses part of it).
 #![allow(dead_code)]
 
-use bellyflop::{Method, Scenario, Solution};
+use bellyflop::{Case, Method, Solution};
 use serde::Deserialize;
 
 pub const DATA: &str = include_str!("../data/labelled_states.toml");
@@ -52,16 +52,17 @@ pub fn entries() -> Vec<Entry> {
 }
 
 /// The paper's case from the entry's initial state.
-pub fn scenario(e: &Entry, method: Method) -> Scenario {
-    let mut s = Scenario::paper();
-    s.discretization.nodes = e.nodes.unwrap_or(20);
-    s.initial.x_m = e.x_m;
-    s.initial.z_m = e.z_m;
-    s.initial.vx_mps = e.vx_mps;
-    s.initial.vz_mps = e.vz_mps;
-    s.initial.theta_deg = e.theta_deg;
-    s.initial.mass_kg = e.mass_kg;
-    s.discretization.final_mass_guess_kg = (e.mass_kg - 5000.0).max(s.vehicle.dry_mass_kg);
+pub fn scenario(e: &Entry, method: Method) -> Case {
+    let mut s = Case::paper();
+    s.scenario.discretization.nodes = e.nodes.unwrap_or(20);
+    s.scenario.initial.x_m = e.x_m;
+    s.scenario.initial.z_m = e.z_m;
+    s.scenario.initial.vx_mps = e.vx_mps;
+    s.scenario.initial.vz_mps = e.vz_mps;
+    s.scenario.initial.theta_deg = e.theta_deg;
+    s.scenario.initial.mass_kg = e.mass_kg;
+    s.scenario.discretization.final_mass_guess_kg =
+        (e.mass_kg - 5000.0).max(s.scenario.vehicle.dry_mass_kg);
     s.solver.method = method;
     s.validate()
         .unwrap_or_else(|err| panic!("{}: {err}", e.name));

@@ -5,7 +5,7 @@
 //! answer of `bellyflop::solve` keeps.
 #![allow(dead_code)]
 
-use bellyflop::{Method, Scenario, Status};
+use bellyflop::{Case, Method, Status};
 
 /// (x, z, Vx, Vz, θ, m0) ranges: [m, m, m/s, m/s, deg, kg].
 pub const BOX: [(f64, f64); 6] = [
@@ -18,13 +18,13 @@ pub const BOX: [(f64, f64); 6] = [
 ];
 
 /// The paper's case from the state `x` = (x, z, Vx, Vz, θ, m0), with N nodes.
-pub fn scenario(x: [f64; 6], method: Method, nodes: usize) -> Scenario {
-    let mut s = Scenario::paper();
-    let i = &mut s.initial;
+pub fn scenario(x: [f64; 6], method: Method, nodes: usize) -> Case {
+    let mut s = Case::paper();
+    let i = &mut s.scenario.initial;
     (i.x_m, i.z_m, i.vx_mps, i.vz_mps, i.theta_deg, i.mass_kg) =
         (x[0], x[1], x[2], x[3], x[4], x[5]);
-    s.discretization.final_mass_guess_kg = x[5] - 5000.0;
-    s.discretization.nodes = nodes;
+    s.scenario.discretization.final_mass_guess_kg = x[5] - 5000.0;
+    s.scenario.discretization.nodes = nodes;
     s.solver.method = method;
     s
 }
@@ -32,7 +32,7 @@ pub fn scenario(x: [f64; 6], method: Method, nodes: usize) -> Scenario {
 /// The invariants of one answer: JSON for every status, naming status and
 /// method; exit code 0 exactly for `solved`; a reason for every other
 /// status; `solved` means every check passes.
-pub fn check(s: &Scenario, sol: &bellyflop::Solution) -> Result<(), String> {
+pub fn check(s: &Case, sol: &bellyflop::Solution) -> Result<(), String> {
     let v = sol.to_json();
     let fail = |m: String| Err(format!("{:?} ({}): {m}", sol.status, sol.message));
     if v["status"].as_str() != Some(sol.status.as_str())
@@ -60,7 +60,7 @@ pub fn check(s: &Scenario, sol: &bellyflop::Solution) -> Result<(), String> {
     if c.min_altitude_margin_m <= -1e-3 {
         return fail(format!("{} m below the ground", -c.min_altitude_margin_m));
     }
-    if c.thrust_bound_violation_n >= 1e-6 * s.vehicle.max_thrust_n {
+    if c.thrust_bound_violation_n >= 1e-6 * s.scenario.vehicle.max_thrust_n {
         return fail(format!(
             "thrust {} N out of bounds",
             c.thrust_bound_violation_n
