@@ -438,14 +438,7 @@ fn solver_consistency(sv: &SolverSettings) -> Result<(), InputError> {
             ),
         ),
     ];
-    match checks.into_iter().find(|(ok, ..)| !ok) {
-        Some((_, field, value, reason)) => Err(InputError::Inconsistent {
-            field: field.into(),
-            value,
-            reason,
-        }),
-        None => Ok(()),
-    }
+    first_inconsistency(checks)
 }
 
 /// Cross-field conditions. All values are finite here (the range pass ran
@@ -533,6 +526,14 @@ fn consistency(s: &Scenario) -> Result<(), InputError> {
             ),
         ),
     ];
+    first_inconsistency(checks)
+}
+
+/// The first failed cross-field check of (holds, field, value, reason), as
+/// [`InputError::Inconsistent`].
+fn first_inconsistency<const N: usize>(
+    checks: [(bool, &str, f64, String); N],
+) -> Result<(), InputError> {
     match checks.into_iter().find(|(ok, ..)| !ok) {
         Some((_, field, value, reason)) => Err(InputError::Inconsistent {
             field: field.into(),
