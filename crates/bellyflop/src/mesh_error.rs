@@ -62,16 +62,7 @@ pub fn estimate(
 ) -> Result<Vec<IntervalError>, IntegrationError> {
     let s = solution;
     let n = s.nodes;
-    let states: [&[f64]; 8] = [
-        &s.x_m,
-        &s.z_m,
-        &s.vx_mps,
-        &s.vz_mps,
-        &s.theta_rad,
-        &s.pitch_rate_radps,
-        &s.mass_kg,
-        &s.delta_rad,
-    ];
+    let states = s.state_columns();
     if n < 1
         || s.intervals < 1
         || s.intervals > n
@@ -173,17 +164,7 @@ mod tests {
         let tf = 11.5;
         let thrust = |t: f64| 1.2e6 + 4.0e4 * t;
         let chi = |t: f64| 0.02 - 0.003 * t;
-        let i = &s.initial;
-        let y0 = [
-            i.x_m,
-            i.z_m,
-            i.vx_mps,
-            i.vz_mps,
-            i.theta_deg.to_radians(),
-            i.pitch_rate_degps.to_radians(),
-            i.mass_kg,
-            i.gimbal_deg.to_radians(),
-        ];
+        let y0 = s.initial.state_si();
         let rhs = |t: f64, y: &[f64; 8]| -> [f64; 8] {
             let p = [y[0], y[1], y[2], y[3], y[4], y[5], y[6]];
             let f = dynamics::rhs_physical(&model, &p, thrust(t), y[7]);
@@ -242,16 +223,7 @@ mod tests {
     /// approximates.
     fn dense_error(sol: &Solution, ts: &[f64], ys: &[[f64; 8]]) -> Vec<f64> {
         let mesh = Mesh::uniform(sol.nodes, sol.intervals);
-        let states = [
-            &sol.x_m,
-            &sol.z_m,
-            &sol.vx_mps,
-            &sol.vz_mps,
-            &sol.theta_rad,
-            &sol.pitch_rate_radps,
-            &sol.mass_kg,
-            &sol.delta_rad,
-        ];
+        let states = sol.state_columns();
         let mut out = vec![0.0f64; mesh.intervals.len()];
         for (t, y) in ts.iter().zip(ys) {
             let tau = 2.0 * t / sol.tf_s - 1.0;

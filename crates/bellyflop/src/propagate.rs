@@ -776,15 +776,8 @@ pub fn propagate(
 ) -> Result<Propagation, IntegrationError> {
     let s = solution;
     let m = s.t_s.len();
-    let states0 = [
-        &s.x_m,
-        &s.z_m,
-        &s.vx_mps,
-        &s.vz_mps,
-        &s.theta_rad,
-        &s.pitch_rate_radps,
-        &s.mass_kg,
-    ];
+    let columns = s.state_columns();
+    let states0 = &columns[..7];
     if m < 2 || states0.iter().any(|v| v.len() != m) {
         return Err(IntegrationError::BadSolution(format!(
             "the state arrays must all have the length of t_s ({m} ≥ 2)"

@@ -281,6 +281,21 @@ impl Solution {
     }
 
     /// One JSON object with the status, scalars, node arrays, checks and history.
+    /// The node arrays of the 8 states of P2, in its order: x, z, Vx, Vz,
+    /// θ, w, m, δ.
+    pub fn state_columns(&self) -> [&[f64]; 8] {
+        [
+            &self.x_m,
+            &self.z_m,
+            &self.vx_mps,
+            &self.vz_mps,
+            &self.theta_rad,
+            &self.pitch_rate_radps,
+            &self.mass_kg,
+            &self.delta_rad,
+        ]
+    }
+
     pub fn to_json(&self) -> serde_json::Value {
         let mut v = serde_json::to_value(self).expect("a Solution serializes");
         v["status"] = self.status.as_str().into();
