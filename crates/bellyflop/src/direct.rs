@@ -23,101 +23,16 @@
 
 use std::time::Instant;
 
-use serde::{Deserialize, Serialize};
-
 use crate::kkt::{Inertia, KktMatrix, KktSolver};
 use crate::nlp::{Nlp, PointDerivatives, NL, NS};
-use crate::scenario::SolverSettings;
-use crate::scvx::Observer;
+use crate::observer::Observer;
+use crate::settings::SolverSettings;
+pub use crate::settings::{DirectSettings, MuStrategy};
+pub use crate::solution::DirectIteration;
 use crate::solution::Status;
-
-/// Settings of the direct method (`[solver.direct]` in a scenario).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DirectSettings {
-    /// Convergence: the scaled optimality error E_0 (Eq. 5) below this.
-    pub tolerance: f64,
-    /// Iteration limit; past it the status is `not_converged`.
-    pub max_iterations: usize,
-    /// Initial barrier parameter μ_0.
-    pub mu_init: f64,
-    /// How μ falls: `monotone` (Fiacco–McCormick, IPOPT's default) or
-    /// `adaptive` (Mehrotra's probing rule each iteration, with a fall-back
-    /// to the monotone rule when the optimality error stops falling).
-    pub mu_strategy: MuStrategy,
-    /// Coarse-to-fine start: first solve on a global mesh of this many
-    /// points from the straight line, then start the scenario's mesh from
-    /// that answer, interpolated, at μ_0 = [`WARM_MU`]. Used when the
-    /// scenario's N is at least twice as many; 0 always starts from the
-    /// straight line. Default 10, measured on 18 dispersed states
-    /// (BENCHMARKS.md "Direct method"): 2.7× → 3.4× faster than IPOPT at
-    /// N = 20 and 3.0× → 6.1× at N = 40, and it reaches IPOPT's optimum on
-    /// the two states of 150 where the straight line led to a worse one.
-    pub coarse_nodes: usize,
-    /// Tolerance of the coarse start's solve (its E_0, as `tolerance`). The
-    /// coarse answer only places the fine solve near its optimum: converging
-    /// it further is work that the fine mesh redoes (its μ restarts at
-    /// [`WARM_MU`]). Default 1e-2 (BENCHMARKS.md "Direct method").
-    pub coarse_tolerance: f64,
-}
 
 /// μ_0 of the fine solve after a coarse start, and of warm starts.
 pub const WARM_MU: f64 = 1e-4;
-
-/// The barrier parameter update.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum MuStrategy {
-    /// μ ← max(ε/10, min(κ_μ μ, μ^θ_μ)) once the barrier problem is solved
-    /// to κ_ε μ (Wächter & Biegler 2006, Eq. 7).
-    #[default]
-    Monotone,
-    /// μ = σ·(sᵀz/n) with σ = (μ_aff/(sᵀz/n))³ from an affine-scaling probe
-    /// (Mehrotra 1992; Nocedal, Wächter & Waltz 2009), the filter reset as μ
-    /// changes; monotone from the first iteration that fails to reduce the
-    /// optimality error E_0 over [`ADAPTIVE_WINDOW`] iterations, or whose
-    /// line search fails.
-    Adaptive,
-}
-
-impl Default for DirectSettings {
-    fn default() -> Self {
-        DirectSettings {
-            tolerance: 1e-8,
-            max_iterations: 500,
-            mu_init: 0.1,
-            mu_strategy: MuStrategy::Monotone,
-            coarse_nodes: 10,
-            coarse_tolerance: 1e-2,
-        }
-    }
-}
-
-/// One interior-point iteration, as recorded by the driver.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct DirectIteration {
-    pub iteration: usize,
-    /// Collocation points N of the mesh the iteration ran on (the coarse
-    /// start's mesh, or the scenario's).
-    pub mesh_nodes: usize,
-    /// Final mass of the iterate \[kg\] (the objective).
-    pub final_mass_kg: f64,
-    /// Largest |defect| (scaled).
-    pub primal_infeasibility: f64,
-    /// Largest |∇L| (scaled, divided by IPOPT's s_d).
-    pub dual_infeasibility: f64,
-    /// Barrier parameter μ.
-    pub mu: f64,
-    /// Primal step length α.
-    pub step: f64,
-    /// Largest regularization δ_w of a node block (0: none needed).
-    pub inertia_correction: f64,
-    /// Backtracking trials of the line search.
-    pub line_search_trials: usize,
-    /// Whether the step came from the feasibility restoration.
-    pub restoration: bool,
-    pub ms: f64,
-}
 
 /// The answer of [`solve_nlp`]: the last iterate (scaled) and how it ended.
 #[derive(Debug, Clone)]
@@ -1377,7 +1292,9 @@ pub fn solve_from(
     let tr = crate::transcription::Transcription::new(scenario, &exact);
     let checks = checks(nlp, &r.w);
     let (mut status, mut message) = (r.status, r.message);
-    if status == Status::Solved && checks.min_altitude_margin_m < -crate::scvx::GROUND_TOLERANCE_M {
+    if status == Status::Solved
+        && checks.min_altitude_margin_m < -crate::solution::GROUND_TOLERANCE_M
+    {
         status = Status::NonPhysical;
         message = format!(
             "the trajectory passes {:.3} m below the landing altitude",

@@ -35,20 +35,22 @@ pub mod mesh;
 pub mod mesh_error;
 pub mod navigation;
 pub mod nlp;
+pub mod observer;
 pub mod propagate;
 pub mod radau;
 pub mod replan;
 pub mod report;
 pub mod scenario;
 pub mod scvx;
+pub mod settings;
 pub mod sim;
 pub mod solution;
 pub mod transcription;
 pub mod validate;
 
 pub use error::InputError;
+pub use observer::Observer;
 pub use scenario::{Case, Formulation, Method, Scenario, SolverSettings};
-pub use scvx::Observer;
 pub use solution::{Solution, Status};
 
 /// Solve a scenario with the method its settings name

@@ -2,7 +2,6 @@
 
 use serde::Serialize;
 
-use crate::direct::DirectIteration;
 use crate::dynamics::{self, ix};
 use crate::scenario::{Formulation, Method};
 use crate::transcription::{Trajectory, Transcription};
@@ -84,6 +83,39 @@ pub struct IterationRecord {
     pub ipm_iterations: u32,
     pub ms: f64,
 }
+
+/// One interior-point iteration, as recorded by the driver.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DirectIteration {
+    pub iteration: usize,
+    /// Collocation points N of the mesh the iteration ran on (the coarse
+    /// start's mesh, or the scenario's).
+    pub mesh_nodes: usize,
+    /// Final mass of the iterate \[kg\] (the objective).
+    pub final_mass_kg: f64,
+    /// Largest |defect| (scaled).
+    pub primal_infeasibility: f64,
+    /// Largest |∇L| (scaled, divided by IPOPT's s_d).
+    pub dual_infeasibility: f64,
+    /// Barrier parameter μ.
+    pub mu: f64,
+    /// Primal step length α.
+    pub step: f64,
+    /// Largest regularization δ_w of a node block (0: none needed).
+    pub inertia_correction: f64,
+    /// Backtracking trials of the line search.
+    pub line_search_trials: usize,
+    /// Whether the step came from the feasibility restoration.
+    pub restoration: bool,
+    pub ms: f64,
+}
+
+/// How far a returned path may dip below the landing altitude at a node and
+/// still be `solved` \[m\]: 1 mm, a thousandth of the paper's re-integrated
+/// landing error (0.8 m). The ground bound z ≥ z_f holds only to the
+/// subproblem's tolerances: a 0 tolerance (1 µm before) called a path
+/// 1.5 µm under the pad `non_physical`.
+pub const GROUND_TOLERANCE_M: f64 = 1e-3;
 
 /// Checks of the returned trajectory against the nonlinear problem.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

@@ -620,6 +620,22 @@ fn fmt_bound(x: f64) -> String {
     }
 }
 
+/// [`solver`] as a method.
+impl SolverSettings {
+    /// Check every field against its allowed range.
+    pub fn validate(&self) -> Result<(), InputError> {
+        solver(self)
+    }
+}
+
+/// [`scenario`] as a method.
+impl Scenario {
+    /// Check every field against its allowed range.
+    pub fn validate(&self) -> Result<(), InputError> {
+        scenario(self)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -12,32 +12,13 @@ pub mod conic;
 mod subproblem;
 
 use crate::dynamics::{ix, NU_MAX, NX};
+pub use crate::observer::{Observer, Silent};
 use crate::scenario::{Formulation, Scenario, SolverSettings};
+pub use crate::solution::GROUND_TOLERANCE_M;
 use crate::solution::{self, IterationRecord, Solution, Status};
 use crate::transcription::{Trajectory, Transcription};
 pub use conic::ConicSolver;
 pub use subproblem::{ConicData, SubproblemResult};
-
-/// Receives each iteration as it completes (progress bars, logs, plots).
-pub trait Observer {
-    /// An SCvx iteration.
-    fn on_iteration(&mut self, record: &IterationRecord);
-    /// An iteration of the direct method (ignored unless overridden).
-    fn on_direct_iteration(&mut self, _record: &crate::direct::DirectIteration) {}
-}
-
-/// An observer that ignores everything.
-pub struct Silent;
-
-impl Observer for Silent {
-    fn on_iteration(&mut self, _: &IterationRecord) {}
-}
-
-impl<F: FnMut(&IterationRecord)> Observer for F {
-    fn on_iteration(&mut self, record: &IterationRecord) {
-        self(record)
-    }
-}
 
 /// The paper's initial reference: the straight line from the initial to the
 /// terminal state (mass from m0 to the final-mass guess, δ from δ0 to 0),
@@ -87,13 +68,6 @@ pub fn straight_line(tr: &Transcription, tf_s: f64, final_mass_kg: f64) -> Traje
 /// that the nonlinear constraints cannot be met; below it, and above the
 /// tolerance, the answer is only "not converged".
 pub const INFEASIBLE_VIRTUAL_CONTROL: f64 = 1e-4;
-
-/// How far a returned path may dip below the landing altitude at a node and
-/// still be `solved` \[m\]: 1 mm, a thousandth of the paper's re-integrated
-/// landing error (0.8 m). The ground bound z ≥ z_f holds only to the
-/// subproblem's tolerances: a 0 tolerance (1 µm before) called a path
-/// 1.5 µm under the pad `non_physical`.
-pub const GROUND_TOLERANCE_M: f64 = 1e-3;
 
 /// How far a `solved` thrust may leave [T_min, T_max], as a fraction of
 /// T_max (2.2 N on the paper's case). The bounds are linearized in ω (Eq. 28),

@@ -1,0 +1,212 @@
+//! How a scenario is solved, apart from the problem itself: the method, the
+//! SCvx settings and the direct method's (`[solver]` and `[solver.direct]`
+//! of a scenario file). Their ranges are checked by [`crate::validate`].
+
+use serde::{Deserialize, Serialize};
+
+/// Which form of the thrust-direction constraint the subproblem uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Formulation {
+    /// Physically exact (default): controls σ = T/m and χ = δ̇; the thrust
+    /// direction θ + δ stays inside the dynamics and is linearized by SCvx.
+    /// ‖T‖ = σ holds by construction, and thrust cannot point backwards.
+    #[default]
+    Exact,
+    /// The paper's P4 (Eq. 26–30): controls Txm, Tzm, σ, χ with the lossless
+    /// cone ‖(Txm, Tzm)‖ ≤ σ and the linearized direction constraint (Eq. 27).
+    Paper,
+    /// Thrust-vector form: the paper's controls (Txm, Tzm, σ, χ) and cone, with
+    /// the thrust forced onto the nozzle axis by two linearized equalities,
+    /// Txm·cos φ − Tzm·sin φ = 0 and Txm·sin φ + Tzm·cos φ = σ (φ = θ + δ),
+    /// under virtual control. Physically exact at convergence.
+    Vector,
+}
+
+/// Which method solves the transcription.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Successive convexification with Clarabel (the paper's method).
+    Scvx,
+    /// A primal–dual interior-point method on the nonlinear program P2
+    /// ([`crate::direct`]); the default: on 150 seeded dispersed states it
+    /// solves every state IPOPT solves, 7.3× (N = 20) and 12.7× (N = 40)
+    /// faster than IPOPT (BENCHMARKS.md, `bench/envelope.py`).
+    #[default]
+    Direct,
+}
+
+impl Method {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Method::Scvx => "scvx",
+            Method::Direct => "direct",
+        }
+    }
+}
+
+/// SCvx settings (Section 3.4, with the trust-region rule of Mao et al. 2016).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverSettings {
+    /// The method: `scvx` (the paper's) or `direct`.
+    pub method: Method,
+    /// Settings of the direct method.
+    pub direct: DirectSettings,
+    pub formulation: Formulation,
+    /// Exact formulation only: iterations allowed to the paper's relaxation
+    /// before the exact form is solved; its answer is kept only if it passes
+    /// every physical check. 0 solves the exact form directly.
+    pub relaxed_first_iterations: usize,
+    /// Iteration limit; past it the status is `not_converged`.
+    pub max_iterations: usize,
+    /// Convergence: scaled step ‖Δz‖∞ below this.
+    pub step_tolerance: f64,
+    /// Convergence: largest nonlinear collocation defect (scaled, Eq. 24) below this.
+    pub defect_tolerance: f64,
+    /// Convergence: scaled virtual control ‖ν‖∞ below this.
+    pub virtual_control_tolerance: f64,
+    /// Exact-penalty weight λ on ‖ν‖₁ (scaled units).
+    pub virtual_control_weight: f64,
+    /// Weight w of the proximal term w·‖Δẑ‖² that regularizes each subproblem.
+    pub proximal_weight: f64,
+    /// Initial trust-region radius (scaled ∞-norm). The relaxed first phase
+    /// of the `exact` formulation has its own (0.6, see `scvx`).
+    pub trust_region_initial: f64,
+    /// Smallest trust-region radius before the iteration stops.
+    pub trust_region_min: f64,
+    /// Largest trust-region radius.
+    pub trust_region_max: f64,
+    /// Acceptance-ratio thresholds ρ0 < ρ1 < ρ2 (Mao, Szmuk, Açıkmeşe 2016).
+    pub rho0: f64,
+    pub rho1: f64,
+    pub rho2: f64,
+    /// Radius shrink factor (>1) when ρ < ρ1, and growth factor (>1) when ρ ≥ ρ2.
+    pub shrink: f64,
+    pub grow: f64,
+    /// Second-order correction of poor candidates (ρ < ρ1): remove the
+    /// candidate's linearization error by a minimum-norm step on the
+    /// linearized equalities before judging it (Nocedal & Wright §15.6).
+    /// Without it the exact-penalty merit rejects steps for their O(Δ²)
+    /// defects (the Maratos effect) and the trust region shrinks onto a
+    /// point short of the optimum.
+    pub second_order_correction: bool,
+    /// Accepted relaxation gap max(1 − ‖T‖/σ) of a returned solution.
+    pub relaxation_gap_tolerance: f64,
+    /// Soft thrust margin μ (0 = off): a throttle outside
+    /// [(1+μ)·T_min, (1−μ)·T_max] is allowed, up to the hard bounds, at a cost
+    /// of `thrust_margin_weight` per node and unit of scaled σ. Closed-loop
+    /// plans keep thrust range for feedback this way without declaring a
+    /// state infeasible that the engine can still land from.
+    pub thrust_margin_frac: f64,
+    /// Cost weight of the soft thrust margin's use (scaled units; the fuel
+    /// cost −ω̂(t_f) is of order one).
+    pub thrust_margin_weight: f64,
+    /// Soft terminal position and horizontal velocity (0 = hard, the
+    /// paper's Eq. 4): a miss of x(t_f) or Vx(t_f) costs this weight per
+    /// unit of scaled miss. A closed-loop re-plan that cannot null the
+    /// lateral error any more then returns the smallest miss instead of
+    /// failing.
+    pub terminal_lateral_weight: f64,
+    /// Largest re-integrated landing position error ‖(x, z)(t_f) − (x_f, z_f)‖
+    /// of a `solved` answer \[m\] ([`crate::accuracy`]); beyond it the status
+    /// is `inaccurate`. Default 5 m, six times the paper's case at N = 20
+    /// (0.81 m with both methods).
+    pub landing_position_tolerance_m: f64,
+    /// Largest re-integrated landing velocity error ‖(Vx, Vz)(t_f) − (Vx_f,
+    /// Vz_f)‖ [m/s]. Default 2 m/s, six times the paper's case at N = 20
+    /// (0.32 m/s).
+    pub landing_velocity_tolerance_mps: f64,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        Self {
+            method: Method::Direct,
+            direct: DirectSettings::default(),
+            formulation: Formulation::Exact,
+            relaxed_first_iterations: 10,
+            max_iterations: 100,
+            step_tolerance: 1e-3,
+            defect_tolerance: 1e-6,
+            virtual_control_tolerance: 1e-7,
+            virtual_control_weight: 1e3,
+            proximal_weight: 0.0,
+            trust_region_initial: 0.3,
+            trust_region_min: 1e-6,
+            trust_region_max: 10.0,
+            rho0: 0.0,
+            rho1: 0.25,
+            rho2: 0.7,
+            shrink: 3.0,
+            grow: 2.0,
+            second_order_correction: true,
+            relaxation_gap_tolerance: 1e-6,
+            thrust_margin_frac: 0.0,
+            thrust_margin_weight: 100.0,
+            terminal_lateral_weight: 0.0,
+            landing_position_tolerance_m: 5.0,
+            landing_velocity_tolerance_mps: 2.0,
+        }
+    }
+}
+
+/// Settings of the direct method (`[solver.direct]` in a scenario).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DirectSettings {
+    /// Convergence: the scaled optimality error E_0 (Eq. 5) below this.
+    pub tolerance: f64,
+    /// Iteration limit; past it the status is `not_converged`.
+    pub max_iterations: usize,
+    /// Initial barrier parameter μ_0.
+    pub mu_init: f64,
+    /// How μ falls: `monotone` (Fiacco–McCormick, IPOPT's default) or
+    /// `adaptive` (Mehrotra's probing rule each iteration, with a fall-back
+    /// to the monotone rule when the optimality error stops falling).
+    pub mu_strategy: MuStrategy,
+    /// Coarse-to-fine start: first solve on a global mesh of this many
+    /// points from the straight line, then start the scenario's mesh from
+    /// that answer, interpolated, at μ_0 = [`crate::direct::WARM_MU`]. Used when the
+    /// scenario's N is at least twice as many; 0 always starts from the
+    /// straight line. Default 10, measured on 18 dispersed states
+    /// (BENCHMARKS.md "Direct method"): 2.7× → 3.4× faster than IPOPT at
+    /// N = 20 and 3.0× → 6.1× at N = 40, and it reaches IPOPT's optimum on
+    /// the two states of 150 where the straight line led to a worse one.
+    pub coarse_nodes: usize,
+    /// Tolerance of the coarse start's solve (its E_0, as `tolerance`). The
+    /// coarse answer only places the fine solve near its optimum: converging
+    /// it further is work that the fine mesh redoes (its μ restarts at
+    /// [`crate::direct::WARM_MU`]). Default 1e-2 (BENCHMARKS.md "Direct method").
+    pub coarse_tolerance: f64,
+}
+
+/// The barrier parameter update.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MuStrategy {
+    /// μ ← max(ε/10, min(κ_μ μ, μ^θ_μ)) once the barrier problem is solved
+    /// to κ_ε μ (Wächter & Biegler 2006, Eq. 7).
+    #[default]
+    Monotone,
+    /// μ = σ·(sᵀz/n) with σ = (μ_aff/(sᵀz/n))³ from an affine-scaling probe
+    /// (Mehrotra 1992; Nocedal, Wächter & Waltz 2009), the filter reset as μ
+    /// changes; monotone from the first iteration that fails to reduce the
+    /// optimality error E_0 over [`crate::direct::ADAPTIVE_WINDOW`] iterations, or whose
+    /// line search fails.
+    Adaptive,
+}
+
+impl Default for DirectSettings {
+    fn default() -> Self {
+        DirectSettings {
+            tolerance: 1e-8,
+            max_iterations: 500,
+            mu_init: 0.1,
+            mu_strategy: MuStrategy::Monotone,
+            coarse_nodes: 10,
+            coarse_tolerance: 1e-2,
+        }
+    }
+}
