@@ -26,19 +26,7 @@ use crate::mesh::Mesh;
 use crate::propagate::{Dop853, IntegrationError, Stats};
 use crate::radau::{interpolate, Lgr};
 use crate::scenario::Scenario;
-use crate::solution::Solution;
-
-/// The 8 states of the estimate, in order.
-pub const STATE_NAMES: [&str; 8] = [
-    "x_m",
-    "z_m",
-    "vx_mps",
-    "vz_mps",
-    "theta_rad",
-    "pitch_rate_radps",
-    "mass_kg",
-    "delta_rad",
-];
+use crate::solution::{Solution, STATE_COLUMN_NAMES};
 
 /// The estimate on one interval.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -141,7 +129,7 @@ pub fn estimate(
             t_start_s: time(iv.tau_lo),
             t_end_s: time(iv.tau_hi),
             relative_error: worst,
-            worst_state: STATE_NAMES[worst_state],
+            worst_state: STATE_COLUMN_NAMES[worst_state],
         });
     }
     Ok(out)

@@ -117,6 +117,19 @@ pub struct DirectIteration {
 /// 1.5 µm under the pad `non_physical`.
 pub const GROUND_TOLERANCE_M: f64 = 1e-3;
 
+/// The names of [`Solution::state_columns`], in the same order (the JSON's
+/// keys of those arrays).
+pub const STATE_COLUMN_NAMES: [&str; 8] = [
+    "x_m",
+    "z_m",
+    "vx_mps",
+    "vz_mps",
+    "theta_rad",
+    "pitch_rate_radps",
+    "mass_kg",
+    "delta_rad",
+];
+
 /// Checks of the returned trajectory against the nonlinear problem.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Checks {
@@ -314,7 +327,7 @@ impl Solution {
 
     /// One JSON object with the status, scalars, node arrays, checks and history.
     /// The node arrays of the 8 states of P2, in its order: x, z, Vx, Vz,
-    /// θ, w, m, δ.
+    /// θ, w, m, δ (named by [`STATE_COLUMN_NAMES`]).
     pub fn state_columns(&self) -> [&[f64]; 8] {
         [
             &self.x_m,
