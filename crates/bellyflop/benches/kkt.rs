@@ -35,9 +35,11 @@ fn paper(n: usize) -> Case {
     s
 }
 
-/// The Newton system at the 5th iterate of a cold direct solve.
-fn system(n: usize) -> (Nlp, KktMatrix) {
-    let s = paper(n);
+/// The Newton system at the 5th iterate of a cold direct solve, on `n`
+/// points over `intervals` LGR intervals.
+fn system(n: usize, intervals: usize) -> (Nlp, KktMatrix) {
+    let mut s = paper(n);
+    s.scenario.discretization.intervals = intervals;
     let nlp = Nlp::new(&s.scenario, &s.solver);
     let d = &s.scenario.discretization;
     let w0 = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
@@ -77,8 +79,14 @@ fn kkt_solve(c: &mut Criterion) {
     let mut g = c.benchmark_group("kkt");
     g.warm_up_time(Duration::from_secs(1));
     g.measurement_time(Duration::from_secs(3));
-    for n in [20, 40] {
-        let (nlp, kkt) = system(n);
+    // The global mesh (dense R) and hp meshes of 8 intervals (banded R).
+    for (n, intervals) in [(20, 1), (40, 1), (40, 8), (80, 8)] {
+        let (nlp, kkt) = system(n, intervals);
+        let id = if intervals == 1 {
+            n.to_string()
+        } else {
+            format!("{n}_over_{intervals}")
+        };
         let rw: Vec<f64> = (0..nlp.n_var())
             .map(|j| {
                 if nlp.is_fixed(j) {
@@ -91,7 +99,7 @@ fn kkt_solve(c: &mut Criterion) {
         let rl: Vec<f64> = (0..nlp.n_con()).map(|r| (r as f64 * 0.7).cos()).collect();
         let mut solver = KktSolver::new(&nlp);
         let (mut xw, mut xl) = (vec![0.0; nlp.n_var()], vec![0.0; nlp.n_con()]);
-        g.bench_with_input(BenchmarkId::new("structured", n), &n, |b, _| {
+        g.bench_with_input(BenchmarkId::new("structured", &id), &n, |b, _| {
             b.iter(|| {
                 for k in 0..=nlp.n {
                     black_box(solver.factor_node(k, &kkt.w[k], 0.0));
@@ -111,7 +119,7 @@ fn kkt_solve(c: &mut Criterion) {
             .expect("QDLDL settings");
         let mut ldl = QDLDLFactorisation::new(&k, Some(opts)).expect("QDLDL factors K");
         let mut rhs = vec![0.0; dim];
-        g.bench_with_input(BenchmarkId::new("qdldl", n), &n, |b, _| {
+        g.bench_with_input(BenchmarkId::new("qdldl", &id), &n, |b, _| {
             b.iter(|| {
                 ldl.refactor().expect("QDLDL refactors K");
                 rhs.iter_mut()
@@ -122,10 +130,12 @@ fn kkt_solve(c: &mut Criterion) {
             })
         });
         println!(
-            "N = {n}: K is {dim} square, {} stored nonzeros; QDLDL's L has {} nonzeros; reduced system {} square (dense)",
+            "N = {n} over {intervals} intervals: K is {dim} square, {} stored nonzeros; QDLDL's L has {} nonzeros; reduced system {} square ({}); last path {:?}",
             k.nnz(),
             ldl.nnzL(),
-            7 * nlp.n + 2
+            7 * nlp.n + 2,
+            if intervals == 1 { "dense" } else { "block-tridiagonal" },
+            solver.reduced_path(),
         );
     }
     g.finish();

@@ -1,7 +1,7 @@
 //! Solve one scenario many times with the direct method and print the
 //! median solve time and the iterations: a loop to profile (`perf record`).
 //!
-//!     cargo run --release -p bellyflop --example direct_repeat -- [N] [RUNS]
+//!     cargo run --release -p bellyflop --example direct_repeat -- [N] [RUNS] [INTERVALS]
 
 use bellyflop::scvx::Silent;
 use bellyflop::{Case, Method};
@@ -10,8 +10,10 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(20);
     let runs: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(50);
+    let intervals: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(1);
     let mut s = Case::paper();
     s.scenario.discretization.nodes = n;
+    s.scenario.discretization.intervals = intervals;
     s.solver.method = Method::Direct;
     let mut ms = Vec::with_capacity(runs);
     let mut last = None;
@@ -23,7 +25,7 @@ fn main() {
     ms.sort_by(f64::total_cmp);
     let sol = last.expect("at least one run");
     println!(
-        "N = {n}: {} in {} iterations, m_f = {:.1} kg; median {:.2} ms over {runs} runs ({:.3} ms per iteration), fastest {:.2} ms",
+        "N = {n} over {intervals} intervals: {} in {} iterations, m_f = {:.1} kg; median {:.2} ms over {runs} runs ({:.3} ms per iteration), fastest {:.2} ms",
         sol.status.as_str(),
         sol.iterations,
         sol.final_mass_kg,
