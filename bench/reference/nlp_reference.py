@@ -14,8 +14,9 @@ against an independent answer:
 
 Both are transcribed with Legendre-Gauss-Radau (LGR) collocation, implemented
 here from scratch (Sec. 3.2, Eq. 24), and solved with CasADi + IPOPT. The
-collocation mesh is either the paper's single global LGR interval (M = 1) or an
-hp mesh of M LGR intervals (see `LgrMesh`).
+collocation mesh is either the paper's single global LGR interval (M = 1), an
+hp mesh of M equal LGR intervals, or an explicit layout of interval breaks and
+points per interval (see `LgrMesh`).
 
 Nothing from the rest of the repository is imported: the only inputs are the
 scenario TOML file and the command-line options.
@@ -23,6 +24,10 @@ scenario TOML file and the command-line options.
 Usage:
     python nlp_reference.py --scenario ../../scenarios/paper.toml \
         --nodes 20 --problem P2 [--intervals M] [--repeat 5] [--json]
+    python nlp_reference.py --scenario ../../scenarios/paper.toml --problem P2 \
+        --breaks-tau -1,-0.2,1 --points 8,8        # explicit mesh layout
+    python nlp_reference.py --scenario ../../scenarios/paper.toml --problem P2 \
+        --layout-json bellyflop_solve.json         # bellyflop's solved mesh
 """
 
 from __future__ import annotations
@@ -68,14 +73,38 @@ class Scenario:
     tf_guess: float   # [s]
     mf_guess: float   # [kg]
     intervals: int = 1  # default number of LGR mesh intervals M
+    # Explicit layout from [discretization.mesh] (None: uniform mesh of
+    # `nodes` over `intervals`); when set, nodes = sum(points) and
+    # intervals = len(points).
+    mesh_breaks_tau: tuple[float, ...] | None = None
+    mesh_points: tuple[int, ...] | None = None
+
+    def mesh(self) -> "LgrMesh":
+        """The scenario's default mesh: its explicit layout, else uniform."""
+        if self.mesh_points is not None:
+            return LgrMesh.from_layout(self.mesh_breaks_tau, self.mesh_points)
+        return LgrMesh(self.nodes, self.intervals)
 
 
 def load_scenario(path: str) -> Scenario:
+    """Read a scenario TOML file. An optional `[discretization.mesh]` table
+    (`breaks_tau`, M + 1 values from -1 to 1; `points`, M sizes >= 2) defines
+    the mesh and overrides `nodes` and `intervals` (N = sum(points),
+    M = len(points)); an invalid table raises ValueError."""
     with open(path, "rb") as fh:
         d = tomllib.load(fh)
     v, e, i, f = d["vehicle"], d["environment"], d["initial"], d["terminal"]
     disc = d["discretization"]
     rad = math.radians
+    breaks, points = None, None
+    if "mesh" in disc:
+        tbl = disc["mesh"]
+        if not isinstance(tbl, dict) or "breaks_tau" not in tbl or "points" not in tbl:
+            raise ValueError(f"{path}: [discretization.mesh] needs breaks_tau and points")
+        try:
+            breaks, points = validate_layout(tbl["breaks_tau"], tbl["points"])
+        except ValueError as exc:
+            raise ValueError(f"{path}: [discretization.mesh]: {exc}") from None
     return Scenario(
         name=d.get("name", path),
         m_dry=v["dry_mass_kg"], l_s=v["length_m"], r_s=v["radius_m"],
@@ -88,9 +117,11 @@ def load_scenario(path: str) -> Scenario:
         delta0=rad(i.get("gimbal_deg", 0.0)),
         xf=np.array([f["x_m"], f["z_m"], f["vx_mps"], f["vz_mps"],
                      rad(f["theta_deg"]), rad(f["pitch_rate_degps"])]),
-        nodes=int(disc["nodes"]), tf_guess=disc["tf_guess_s"],
-        mf_guess=disc["final_mass_guess_kg"],
-        intervals=int(disc.get("intervals", 1)),
+        nodes=sum(points) if points else int(disc["nodes"]),
+        tf_guess=disc["tf_guess_s"], mf_guess=disc["final_mass_guess_kg"],
+        intervals=len(points) if points else int(disc.get("intervals", 1)),
+        mesh_breaks_tau=tuple(breaks) if points else None,
+        mesh_points=tuple(points) if points else None,
     )
 
 
@@ -162,19 +193,96 @@ def lagrange_diff_matrix(tau_col: np.ndarray, tau_all: np.ndarray) -> np.ndarray
     return D
 
 
+def lgr_weights(N: int, tau: np.ndarray | None = None) -> np.ndarray:
+    """The N LGR quadrature weights on [-1, 1]:
+    w_i = (1 - tau_i) / (N^2 P_{N-1}(tau_i)^2), so w_1 = 2 / N^2. Exact for
+    polynomials of degree <= 2N - 2."""
+    if tau is None:
+        tau = lgr_points(N)
+    c = np.zeros(N)
+    c[N - 1] = 1.0
+    return (1.0 - tau) / (N * N * npleg.legval(tau, c) ** 2)
+
+
+def validate_layout(breaks_tau, points) -> tuple[list[float], list[int]]:
+    """Check an explicit mesh layout and return it as (floats, ints).
+
+    `breaks_tau` holds M + 1 strictly increasing values from -1 to +1 (the
+    ends within 1e-12, then set exactly), `points` the M interval sizes n_k,
+    each >= 2. Raises ValueError with a message naming the problem.
+    """
+    try:
+        if isinstance(breaks_tau, (str, bytes)):
+            raise TypeError
+        b = [float(v) for v in breaks_tau]
+    except (TypeError, ValueError):
+        raise ValueError(f"breaks_tau must be a list of numbers (got {breaks_tau!r})") from None
+    try:
+        if isinstance(points, (str, bytes)):
+            raise TypeError
+        pts = []
+        for v in points:
+            if isinstance(v, bool) or not float(v).is_integer():
+                raise ValueError
+            pts.append(int(v))
+    except (TypeError, ValueError):
+        raise ValueError(f"points must be a list of integers (got {points!r})") from None
+    if len(pts) < 1:
+        raise ValueError("points must list at least one interval")
+    if len(b) != len(pts) + 1:
+        raise ValueError(
+            f"breaks_tau needs len(points) + 1 = {len(pts) + 1} values for "
+            f"{len(pts)} interval(s) (got {len(b)})")
+    if not all(math.isfinite(v) for v in b):
+        raise ValueError(f"breaks_tau must be finite (got {b})")
+    if abs(b[0] + 1.0) > 1e-12 or abs(b[-1] - 1.0) > 1e-12:
+        raise ValueError(f"breaks_tau must run from -1 to 1 (got {b[0]:g} .. {b[-1]:g})")
+    b[0], b[-1] = -1.0, 1.0
+    for k in range(len(pts)):
+        if not b[k + 1] > b[k]:
+            raise ValueError(
+                f"breaks_tau must be strictly increasing (breaks_tau[{k}] = {b[k]:g}, "
+                f"breaks_tau[{k + 1}] = {b[k + 1]:g})")
+    for k, n in enumerate(pts):
+        if n < 2:
+            raise ValueError(f"each interval needs at least 2 LGR points (points[{k}] = {n})")
+    return b, pts
+
+
+def parse_layout(text: str) -> dict:
+    """Read a mesh layout from JSON text: the `mesh_layout` object of a
+    bellyflop `solve --json` output (or of this script's `--json` output), or
+    a bare {"breaks_tau": [...], "points": [...]} object. Returns that
+    object unvalidated; raises ValueError if there is none."""
+    try:
+        d = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"not JSON: {exc}") from None
+    if isinstance(d, dict) and isinstance(d.get("mesh_layout"), dict):
+        d = d["mesh_layout"]
+    if not (isinstance(d, dict) and "breaks_tau" in d and "points" in d):
+        raise ValueError('no "mesh_layout": {"breaks_tau": [...], "points": [...]} object')
+    return d
+
+
 class LgrMesh:
     """N LGR collocation points split over M intervals (an hp mesh).
 
-    tau in [-1, 1] is cut at tau_k = -1 + 2k/M, k = 0..M. Interval k gets
-    n_k = N // M points, the first N % M intervals one more (n_k >= 2 is
-    required). Its points are the standard n_k-point LGR points mapped affinely
-    from [-1, 1] onto [tau_k, tau_{k+1}]; its non-collocated end point is the
-    next interval's first point (a shared state node), and tau = +1 is the last
-    state node. So `nodes` holds N + 1 strictly increasing values: each
-    interval's LGR points in turn, then +1. Collocation point i (global) of
-    interval k uses the row (2/h_k) D^(k)_i over the n_k + 1 state nodes
-    start_k .. start_k + n_k, where D^(k) is the n_k x (n_k + 1) LGR
-    differentiation matrix on [-1, 1] and h_k = tau_{k+1} - tau_k.
+    tau in [-1, 1] is cut at the breaks tau_0 = -1 < tau_1 < ... < tau_M = 1;
+    interval k = [tau_k, tau_{k+1}] carries n_k >= 2 points, N = sum n_k.
+    `LgrMesh(N, M)` is the uniform mesh: tau_k = -1 + 2k/M, n_k = N // M, the
+    first N % M intervals one more. `LgrMesh.from_layout(breaks_tau, points)`
+    is any explicit layout (bellyflop's `[discretization.mesh]` table or its
+    solved `mesh_layout`). Interval k's points are the standard n_k-point LGR
+    points mapped affinely from [-1, 1] onto [tau_k, tau_{k+1}]; its
+    non-collocated end point is the next interval's first point (a shared state
+    node), and tau = +1 is the last state node. So `nodes` holds N + 1 strictly
+    increasing values: each interval's LGR points in turn, then +1. Collocation
+    point i (global) of interval k uses the row (2/h_k) D^(k)_i over the
+    n_k + 1 state nodes start_k .. start_k + n_k, where D^(k) is the
+    n_k x (n_k + 1) LGR differentiation matrix on [-1, 1] and
+    h_k = tau_{k+1} - tau_k. `weights` are the N quadrature weights on [-1, 1]
+    (each interval's LGR weights times h_k/2).
 
     M = 1 is the paper's global mesh, value for value (2/h = 1, nodes unmapped).
     """
@@ -187,29 +295,53 @@ class LgrMesh:
             raise ValueError(
                 f"N = {N} over M = {M} intervals leaves {base} point(s) in an interval; "
                 f"each interval needs at least 2, so M <= {N // 2}")
+        breaks = [-1.0 + 2.0 * k / M for k in range(M)] + [1.0]
+        self._build(breaks, [base + (1 if k < extra else 0) for k in range(M)])
+        self.uniform = True
+
+    @classmethod
+    def from_layout(cls, breaks_tau, points) -> "LgrMesh":
+        """The mesh of an explicit layout: M + 1 breaks from -1 to 1 (strictly
+        increasing) and M interval sizes (each >= 2). Raises ValueError (see
+        `validate_layout`). A uniform layout gives `LgrMesh(N, M)` exactly."""
+        b, pts = validate_layout(breaks_tau, points)
+        mesh = cls.__new__(cls)
+        mesh._build(b, pts)
+        mesh.uniform = False
+        return mesh
+
+    def _build(self, breaks: list[float], points: list[int]) -> None:
+        M, N = len(points), sum(points)
         self.N, self.M = N, M
+        self.breaks_tau = list(breaks)
         # Per interval: (start node, n_k, tau_lo, tau_hi, scaled local D).
         self.intervals: list[tuple[int, int, float, float, np.ndarray]] = []
-        nodes = []
-        cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        nodes, weights = [], []
+        cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         start = 0
-        for k in range(M):
-            nk = base + (1 if k < extra else 0)
-            tau_lo = -1.0 + 2.0 * k / M
-            tau_hi = 1.0 if k + 1 == M else -1.0 + 2.0 * (k + 1) / M
+        for k, nk in enumerate(points):
+            tau_lo, tau_hi = breaks[k], breaks[k + 1]
             half = 0.5 * (tau_hi - tau_lo)          # h_k / 2
             if nk not in cache:
                 t = lgr_points(nk)
-                cache[nk] = (t, lagrange_diff_matrix(t, np.append(t, 1.0)))
-            t, D = cache[nk]
-            nodes.extend(t if M == 1 else tau_lo + half * (t + 1.0))
+                cache[nk] = (t, lagrange_diff_matrix(t, np.append(t, 1.0)), lgr_weights(nk, t))
+            t, D, wq = cache[nk]
+            whole = tau_lo == -1.0 and tau_hi == 1.0   # M = 1: keep the rule unmapped
+            nodes.extend(t if whole else tau_lo + half * (t + 1.0))
+            weights.extend(wq if whole else half * wq)
             self.intervals.append((start, nk, tau_lo, tau_hi, D / half))
             start += nk
         assert start == N
         nodes.append(1.0)
         self.nodes = np.array(nodes)                 # N + 1 state nodes in tau
+        self.weights = np.array(weights)             # N quadrature weights
         self.points = [iv[1] for iv in self.intervals]
         assert np.all(np.diff(self.nodes) > 0)
+
+    def layout(self) -> dict:
+        """{"breaks_tau": [...], "points": [...]}, as bellyflop's `mesh_layout`."""
+        return {"breaks_tau": [float(b) for b in self.breaks_tau],
+                "points": [int(n) for n in self.points]}
 
     def global_matrix(self) -> np.ndarray:
         """The N x (N+1) block-row differentiation matrix (dense, for checks)."""
@@ -229,18 +361,23 @@ class LgrNlp:
         X  (N+1) x nx   states at the N collocation points and at tau = +1
         U   N    x nu   controls at the N collocation points
         tf              final time
-    The mesh is `LgrMesh(N, intervals)`; intervals = 1 is the global mesh.
+    The mesh is `mesh` if given (any `LgrMesh`, e.g. `LgrMesh.from_layout`;
+    its N must equal N), else `LgrMesh(N, intervals)`; intervals = 1 is the
+    global mesh.
     """
 
     def __init__(self, sc: Scenario, N: int, problem: str,
                  tol: float = 1e-9, max_iter: int = 3000,
                  tf_bounds: tuple[float, float] = (1.0, 100.0),
-                 intervals: int = 1, ground: bool = False):
+                 intervals: int = 1, ground: bool = False,
+                 mesh: LgrMesh | None = None):
         self.ground = ground
         if problem not in ("P1", "P2"):
             raise ValueError("problem must be P1 or P2")
+        if mesh is not None and mesh.N != N:
+            raise ValueError(f"mesh has {mesh.N} points, not N = {N}")
         self.sc, self.N, self.problem = sc, N, problem
-        self.mesh = LgrMesh(N, intervals)
+        self.mesh = mesh if mesh is not None else LgrMesh(N, intervals)
         self.tau_all = self.mesh.nodes               # N + 1 state nodes
         self.tau = self.tau_all[:N]                  # N collocation points
 
@@ -457,6 +594,35 @@ def reintegrate(sc: Scenario, problem: str, t_col, U, X, tf, p2_delta="state",
 # --------------------------------------------------------------------------
 # CLI
 # --------------------------------------------------------------------------
+_LIST_FLAGS = ("--breaks-tau", "--points")
+
+
+def _join_list_flags(argv: list[str]) -> list[str]:
+    """Glue the value of --breaks-tau / --points to its flag ("--flag=VALUE").
+
+    argparse takes a separate value such as "-1,-0.2,1" for an option (it only
+    recognises plain negative numbers) and then reports a missing argument."""
+    out, it = [], iter(argv)
+    for a in it:
+        nxt = next(it, None) if a in _LIST_FLAGS else None
+        out.append(a if nxt is None else f"{a}={nxt}")
+    return out
+
+
+def _number_list(kind):
+    """argparse type: a comma-separated list of `kind` values."""
+    def parse(text: str) -> list:
+        try:
+            vals = [kind(v) for v in text.split(",") if v.strip()]
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated {kind.__name__}s, got {text!r}") from None
+        if not vals:
+            raise argparse.ArgumentTypeError(f"empty list {text!r}")
+        return vals
+    return parse
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -468,6 +634,15 @@ def main(argv=None) -> int:
                     help="number of LGR mesh intervals M (hp mesh; N // M >= 2). "
                          "Default: the scenario's discretization.intervals, else 1 "
                          "(the paper's global mesh)")
+    ap.add_argument("--breaks-tau", type=_number_list(float), default=None, metavar="B0,..,BM",
+                    help="explicit mesh layout: M + 1 strictly increasing interval "
+                         "breaks in tau from -1 to 1 (with --points)")
+    ap.add_argument("--points", type=_number_list(int), default=None, metavar="N1,..,NM",
+                    help="explicit mesh layout: LGR points per interval, each >= 2 "
+                         "(with --breaks-tau); N = sum, M = count")
+    ap.add_argument("--layout-json", default=None, metavar="FILE",
+                    help="explicit mesh layout from the \"mesh_layout\" object of a "
+                         "bellyflop `solve --json` output file (or of this script's)")
     ap.add_argument("--repeat", type=int, default=1,
                     help="solve K times from the same guess; report median solve time")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
@@ -478,21 +653,60 @@ def main(argv=None) -> int:
     ap.add_argument("--p2-delta", choices=["state", "chi"], default="state",
                     help="P2 re-integration: interpolate the delta state linearly "
                          "(default) or integrate the linearly interpolated chi")
-    args = ap.parse_args(argv)
+    args = ap.parse_args(_join_list_flags(sys.argv[1:] if argv is None else list(argv)))
 
-    sc = load_scenario(args.scenario)
-    N = args.nodes or sc.nodes
-    if N < 2:
-        ap.error("--nodes must be >= 2")
-    M = args.intervals if args.intervals is not None else sc.intervals
-    if M < 1:
-        ap.error(f"--intervals must be >= 1 (got {M})")
-    if N // M < 2:
-        ap.error(f"N = {N} over M = {M} intervals: each interval needs at least "
-                 f"2 collocation points, so M <= {N // 2}")
+    try:
+        sc = load_scenario(args.scenario)
+    except ValueError as exc:
+        ap.error(str(exc))
+
+    # The mesh: an explicit layout from the command line (--breaks-tau and
+    # --points, or --layout-json), else the scenario's [discretization.mesh]
+    # unless --nodes / --intervals ask for a different N / M, else the
+    # uniform mesh of N over M.
+    layout, where = None, None
+    if args.layout_json is not None:
+        if args.breaks_tau is not None or args.points is not None:
+            ap.error("--layout-json cannot be combined with --breaks-tau / --points")
+        try:
+            with open(args.layout_json) as fh:
+                d = parse_layout(fh.read())
+        except (OSError, ValueError) as exc:
+            ap.error(f"--layout-json {args.layout_json}: {exc}")
+        layout, where = (d["breaks_tau"], d["points"]), f"--layout-json {args.layout_json}"
+    elif args.breaks_tau is not None or args.points is not None:
+        if args.breaks_tau is None or args.points is None:
+            ap.error("--breaks-tau and --points must be given together")
+        layout, where = (args.breaks_tau, args.points), "--breaks-tau / --points"
+    if layout is not None:
+        try:
+            mesh = LgrMesh.from_layout(*layout)
+        except ValueError as exc:
+            ap.error(f"{where}: {exc}")
+        if args.nodes is not None and args.nodes != mesh.N:
+            ap.error(f"--nodes {args.nodes} disagrees with the layout of {where}: "
+                     f"N = sum(points) = {mesh.N}")
+        if args.intervals is not None and args.intervals != mesh.M:
+            ap.error(f"--intervals {args.intervals} disagrees with the layout of {where}: "
+                     f"M = len(points) = {mesh.M}")
+    elif (sc.mesh_points is not None and args.nodes in (None, sc.nodes)
+          and args.intervals in (None, sc.intervals)):
+        mesh = sc.mesh()
+    else:
+        N = args.nodes or sc.nodes
+        if N < 2:
+            ap.error("--nodes must be >= 2")
+        M = args.intervals if args.intervals is not None else sc.intervals
+        if M < 1:
+            ap.error(f"--intervals must be >= 1 (got {M})")
+        if N // M < 2:
+            ap.error(f"N = {N} over M = {M} intervals: each interval needs at least "
+                     f"2 collocation points, so M <= {N // 2}")
+        mesh = LgrMesh(N, M)
+    N, M = mesh.N, mesh.M
 
     nlp = LgrNlp(sc, N, args.problem, tol=args.tol, max_iter=args.max_iter,
-                 intervals=M, ground=args.ground)
+                 ground=args.ground, mesh=mesh)
     w0 = nlp.initial_guess()
 
     walls, sol, stats = [], None, None
@@ -514,6 +728,7 @@ def main(argv=None) -> int:
         "nodes": N,
         "intervals": M,
         "interval_points": nlp.mesh.points,
+        "mesh_layout": nlp.mesh.layout(),
         "scenario": sc.name,
         "status": stats["return_status"],
         "success": bool(stats["success"]),
@@ -555,6 +770,8 @@ def main(argv=None) -> int:
     else:
         mesh = "global mesh" if M == 1 else \
             f"{M} intervals ({'+'.join(str(p) for p in nlp.mesh.points)} points)"
+        if M > 1 and not nlp.mesh.uniform:
+            mesh += " at breaks_tau " + ",".join(f"{b:.6g}" for b in nlp.mesh.breaks_tau)
         print(f"{args.problem}  N={N}  {mesh}  scenario={sc.name}")
         print(f"  IPOPT: {out['status']} ({out['ipopt_iterations']} iterations), "
               f"max scaled defect {max_defect:.2e}")
