@@ -7,6 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::InputError;
+use crate::mesh::MeshLayout;
 pub use crate::settings::{Formulation, Method, SolverSettings};
 
 /// Vehicle parameters (paper Table 1, plus the drag coefficient from NOTES.md).
@@ -108,7 +109,8 @@ impl TerminalState {
     }
 }
 
-/// Discretization: LGR collocation with N points (Section 3.2).
+/// Discretization: LGR collocation with N points (Section 3.2) on M intervals
+/// (uniform, or the explicit mesh of `mesh`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Discretization {
@@ -122,6 +124,12 @@ pub struct Discretization {
     pub tf_guess_s: f64,
     /// Initial guess of the final mass \[kg\] for the straight-line guess.
     pub final_mass_guess_kg: f64,
+    /// An explicit hp mesh (`[discretization.mesh]`: `breaks_tau`, `points`)
+    /// in place of the uniform split of `nodes` over `intervals`. It does not
+    /// override them silently: validation requires `nodes` = Σ points and
+    /// `intervals` = M, so the two counts always describe the mesh solved on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<MeshLayout>,
 }
 
 fn one() -> usize {
