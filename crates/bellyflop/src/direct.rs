@@ -1192,6 +1192,7 @@ pub fn solve(
     let mut coarse = scenario.clone();
     coarse.discretization.nodes = coarse_n;
     coarse.discretization.intervals = 1;
+    coarse.discretization.mesh = None;
     let cnlp = Nlp::new(&coarse, settings);
     let cw0 = cnlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
     let coarse_settings = DirectSettings {
