@@ -72,11 +72,13 @@ struct SolveArgs {
     /// Scenario TOML file; the paper's case when omitted.
     #[arg(long)]
     scenario: Option<PathBuf>,
-    /// Number of LGR collocation points N (4 to 100); overrides the scenario.
+    /// Number of LGR collocation points N (4 to 100); overrides the scenario
+    /// (a `[discretization.mesh]` of the file gives way to the uniform mesh).
     #[arg(long)]
     nodes: Option<usize>,
     /// Number of LGR mesh intervals M (1 to N/2; 1 is the paper's global
-    /// mesh); overrides the scenario.
+    /// mesh); overrides the scenario (and its `[discretization.mesh]`, as
+    /// `--nodes` does).
     #[arg(long)]
     intervals: Option<usize>,
     /// Thrust-direction formulation; overrides the scenario.
@@ -128,6 +130,11 @@ fn load(args: &SolveArgs) -> Result<Case, bellyflop::InputError> {
         None => Case::paper(),
     };
     let d = &mut case.scenario.discretization;
+    if args.nodes.is_some() || args.intervals.is_some() {
+        // The flags ask for the uniform mesh of their counts, in place of
+        // the file's explicit `[discretization.mesh]`.
+        d.mesh = None;
+    }
     if let Some(n) = args.nodes {
         d.nodes = n;
     }

@@ -10,7 +10,6 @@
 //! values are optimized.
 
 use bellyflop::dynamics::{self, ix};
-use bellyflop::mesh::Mesh;
 use bellyflop::Solution;
 
 /// A trajectory sampled in time, in SI units and radians.
@@ -71,7 +70,7 @@ impl Dense {
         let per = per_interval.max(1);
         let tr = &s.trajectory;
         let n = tr.x.len() - 1;
-        let lgr = Mesh::uniform(n, s.intervals);
+        let lgr = s.mesh();
         let nu = dynamics::control_dim(s.formulation);
 
         let state = |c: usize| tr.x.iter().map(|x| x[c]).collect::<Vec<f64>>();

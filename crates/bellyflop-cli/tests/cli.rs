@@ -70,6 +70,13 @@ fn json_mesh_has_every_interval() {
             assert_eq!(iv["t_start_s"], intervals[k - 1]["t_end_s"]);
         }
     }
+    // The mesh solved on, beside the error estimate's `mesh`.
+    let layout = &v["mesh_layout"];
+    assert_eq!(layout["points"], serde_json::json!([5, 5, 5, 5]));
+    assert_eq!(
+        layout["breaks_tau"],
+        serde_json::json!([-1.0, -0.5, 0.0, 0.5, 1.0])
+    );
 }
 
 /// `--repeat R` solves R times in one process: the answer of one run, the

@@ -531,6 +531,10 @@ fn solve(
     interpolation: &str,
 ) -> PyResult<Solution> {
     let mut s = scenario.inner.clone();
+    if nodes.is_some() || intervals.is_some() {
+        // Uniform mesh of the given counts, in place of an explicit one.
+        s.scenario.discretization.mesh = None;
+    }
     if let Some(n) = nodes {
         s.scenario.discretization.nodes = n;
     }

@@ -15,7 +15,6 @@
 //! A first argument `paper` solves with the paper's formulation instead of the
 //! default one.
 use bellyflop::dynamics::Model;
-use bellyflop::mesh::Mesh;
 use bellyflop::propagate::{
     integrate_controls, landing_error, propagate, Controls, Interpolation, NozzleModel, Options,
 };
@@ -80,7 +79,7 @@ fn main() {
         }
         // The collocation polynomials themselves, sampled on a fine grid and
         // integrated with linear interpolation between samples.
-        let lgr = Mesh::uniform(n, sol.intervals);
+        let lgr = sol.mesh();
         let samples = 4000;
         let t: Vec<f64> = (0..=samples)
             .map(|i| sol.tf_s * i as f64 / samples as f64)

@@ -49,6 +49,7 @@ pub mod transcription;
 pub mod validate;
 
 pub use error::InputError;
+pub use mesh::{Mesh, MeshLayout};
 pub use observer::Observer;
 pub use scenario::{Case, Formulation, Method, Scenario, SolverSettings};
 pub use solution::{Solution, Status};

@@ -1,9 +1,11 @@
 //! The collocation mesh: one global LGR interval (the paper's Section 3.2) or an
 //! hp mesh of several LGR intervals (as in GPOPS-II).
 //!
-//! τ ∈ [−1, 1] is split at τ_k = −1 + 2k/M, k = 0..M. Interval k carries n_k
-//! LGR points mapped affinely onto [τ_k, τ_{k+1}]: n_k = ⌊N/M⌋, and the first
-//! N mod M intervals take one more. An interval's non-collocated end point is the
+//! τ ∈ [−1, 1] is split at breaks −1 = τ_0 < τ_1 < … < τ_M = 1, and interval
+//! k carries n_k LGR points mapped affinely onto [τ_k, τ_{k+1}] ([`Mesh::new`],
+//! its shape a [`MeshLayout`]). The uniform mesh ([`Mesh::uniform`], a
+//! scenario's unless it gives `[discretization.mesh]`) has τ_k = −1 + 2k/M,
+//! n_k = ⌊N/M⌋, and the first N mod M intervals take one more. An interval's non-collocated end point is the
 //! next interval's first point, so the state is continuous by construction and
 //! the mesh has N collocation points and N + 1 state nodes, as the global mesh.
 //!
@@ -20,7 +22,54 @@
 //! cost of one subproblem grows linearly in N instead of cubically). M = 1 is
 //! exactly the paper's global mesh.
 
+use serde::{Deserialize, Serialize};
+
 use crate::radau::{interpolate, Lgr};
+use crate::scenario::Discretization;
+
+/// A mesh's shape, as data: M + 1 breaks τ_0 = −1 < τ_1 < … < τ_M = +1 and
+/// the LGR points n_k of each of the M intervals (N = Σ n_k). A scenario may
+/// give one in `[discretization.mesh]`; every [`crate::Solution`] carries
+/// the one it was solved on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshLayout {
+    /// Interval breaks in τ, M + 1 values from −1 to +1, strictly increasing.
+    pub breaks_tau: Vec<f64>,
+    /// LGR collocation points n_k of each interval (M values, each ≥ 2 in a
+    /// scenario).
+    pub points: Vec<usize>,
+}
+
+impl MeshLayout {
+    /// `n` points over `intervals` equal intervals: τ_k = −1 + 2k/M (the last
+    /// break exactly +1), n_k = ⌊N/M⌋ and the first N mod M intervals one more.
+    pub fn uniform(n: usize, intervals: usize) -> MeshLayout {
+        let m = intervals;
+        let (base, extra) = (n / m.max(1), n % m.max(1));
+        let breaks_tau = (0..=m)
+            .map(|k| {
+                if k == m {
+                    1.0
+                } else {
+                    -1.0 + 2.0 * k as f64 / m as f64
+                }
+            })
+            .collect();
+        let points = (0..m).map(|k| base + usize::from(k < extra)).collect();
+        MeshLayout { breaks_tau, points }
+    }
+
+    /// Number of intervals M.
+    pub fn intervals(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Number of collocation points N = Σ n_k.
+    pub fn nodes(&self) -> usize {
+        self.points.iter().sum()
+    }
+}
 
 /// One LGR interval of the mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,7 +106,9 @@ impl Mesh {
         Mesh::uniform(n, 1)
     }
 
-    /// `n` collocation points over `intervals` equal intervals in τ.
+    /// `n` collocation points over `intervals` equal intervals in τ: breaks
+    /// τ_k = −1 + 2k/M, n_k = ⌊N/M⌋ and the first N mod M intervals one more
+    /// ([`Mesh::new`] on that layout).
     ///
     /// # Panics
     /// Panics unless 1 ≤ `intervals` and every interval has at least one
@@ -67,21 +118,61 @@ impl Mesh {
             intervals >= 1 && n >= intervals,
             "a mesh needs 1 ≤ intervals ≤ N"
         );
-        let m = intervals;
-        let (base, extra) = (n / m, n % m);
+        Mesh::from_layout(&MeshLayout::uniform(n, intervals))
+    }
+
+    /// The mesh of a scenario's discretization: its explicit
+    /// `[discretization.mesh]` layout when given, else the uniform split of
+    /// `nodes` over `intervals`. The discretization must have passed
+    /// validation.
+    pub fn of(d: &Discretization) -> Mesh {
+        match &d.mesh {
+            Some(layout) => Mesh::from_layout(layout),
+            None => Mesh::uniform(d.nodes, d.intervals),
+        }
+    }
+
+    /// [`Mesh::new`] on a layout's breaks and point counts.
+    pub fn from_layout(layout: &MeshLayout) -> Mesh {
+        Mesh::new(&layout.breaks_tau, &layout.points)
+    }
+
+    /// A general hp mesh: interval k spans [`breaks_tau[k]`, `breaks_tau[k+1]`]
+    /// and carries `points[k]` LGR points, mapped affinely,
+    /// τ = τ_k + (h_k/2)(τ̂ + 1) with h_k = τ_{k+1} − τ_k, weights (h_k/2)·ŵ
+    /// and differentiation rows (2/h_k)·D^(k) (Eq. 24 on each interval).
+    ///
+    /// With one interval the nodes are the LGR rule's own, bit for bit.
+    ///
+    /// # Panics
+    /// Panics unless there is at least one interval, `breaks_tau` has one
+    /// more entry than `points`, runs from −1 to +1 strictly increasing and
+    /// every interval has at least one point. Scenario validation
+    /// ([`crate::validate`]) enforces this, and more, on input.
+    pub fn new(breaks_tau: &[f64], points: &[usize]) -> Mesh {
+        let m = points.len();
+        assert!(
+            m >= 1 && breaks_tau.len() == m + 1,
+            "a mesh needs M ≥ 1 intervals and M + 1 breaks"
+        );
+        assert!(
+            breaks_tau[0] == -1.0
+                && breaks_tau[m] == 1.0
+                && breaks_tau.windows(2).all(|w| w[0] < w[1]),
+            "mesh breaks must run from -1 to 1, strictly increasing"
+        );
+        assert!(
+            points.iter().all(|&p| p >= 1),
+            "every interval needs a point"
+        );
+        let n: usize = points.iter().sum();
         let mut out = Vec::with_capacity(m);
         let mut nodes = Vec::with_capacity(n + 1);
         let mut weights = Vec::with_capacity(n);
         let mut rows = Vec::with_capacity(n);
         let mut start = 0;
-        for k in 0..m {
-            let points = base + usize::from(k < extra);
-            let tau_lo = -1.0 + 2.0 * k as f64 / m as f64;
-            let tau_hi = if k + 1 == m {
-                1.0
-            } else {
-                -1.0 + 2.0 * (k + 1) as f64 / m as f64
-            };
+        for (k, &points) in points.iter().enumerate() {
+            let (tau_lo, tau_hi) = (breaks_tau[k], breaks_tau[k + 1]);
             let half = 0.5 * (tau_hi - tau_lo);
             let lgr = Lgr::new(points);
             for i in 0..points {
@@ -110,6 +201,17 @@ impl Mesh {
             nodes,
             weights,
             rows,
+        }
+    }
+
+    /// The mesh's breaks and point counts, as a serializable value
+    /// ([`Mesh::from_layout`] rebuilds the same mesh from it).
+    pub fn layout(&self) -> MeshLayout {
+        let mut breaks_tau: Vec<f64> = self.intervals.iter().map(|iv| iv.tau_lo).collect();
+        breaks_tau.extend(self.intervals.last().map(|iv| iv.tau_hi));
+        MeshLayout {
+            breaks_tau,
+            points: self.intervals.iter().map(|iv| iv.points).collect(),
         }
     }
 
@@ -229,6 +331,80 @@ mod tests {
             // Interpolation reproduces the polynomial between nodes.
             for t in [-0.95, -0.3, 0.01, 0.77, 0.999] {
                 assert!((mesh.interpolate_states(&vals, t) - p(t)).abs() < 1e-9);
+            }
+        }
+    }
+
+    /// `Mesh::new` on breaks −1 + 2k/M written out is the uniform mesh, bit
+    /// for bit, and a mesh's layout rebuilds it.
+    #[test]
+    fn new_on_uniform_breaks_is_the_uniform_mesh() {
+        let mesh = Mesh::new(&[-1.0, -0.5, 0.0, 0.5, 1.0], &[6, 6, 5, 5]);
+        assert_eq!(mesh, Mesh::uniform(22, 4));
+        for (n, m) in [(12, 1), (20, 4), (21, 5), (40, 8), (9, 3), (100, 50)] {
+            let uniform = Mesh::uniform(n, m);
+            let layout = uniform.layout();
+            assert_eq!(layout, MeshLayout::uniform(n, m), "{n}/{m}");
+            assert_eq!((layout.nodes(), layout.intervals()), (n, m));
+            let rebuilt = Mesh::from_layout(&layout);
+            assert_eq!(rebuilt, uniform, "{n}/{m}");
+            for (a, b) in rebuilt.nodes.iter().zip(&uniform.nodes) {
+                assert_eq!(a.to_bits(), b.to_bits());
+            }
+        }
+    }
+
+    /// On non-uniform breaks and point counts: the weights sum to the span
+    /// 2, each row of (2/h_k)·D^(k) annihilates constants and differentiates
+    /// any polynomial of degree ≤ n_k exactly on its interval, and the state
+    /// interpolant reproduces such a polynomial.
+    #[test]
+    fn non_uniform_mesh_differentiates_its_intervals_exactly() {
+        let breaks = [-1.0, -0.93, -0.4, 0.05, 0.61, 1.0];
+        let points = [3, 7, 2, 5, 4];
+        let mesh = Mesh::new(&breaks, &points);
+        assert_eq!(mesh.n, 21);
+        assert_eq!(mesh.nodes.len(), 22);
+        assert!(mesh.nodes.windows(2).all(|w| w[0] < w[1]));
+        assert!((mesh.weights.iter().sum::<f64>() - 2.0).abs() < 1e-13);
+        assert_eq!(mesh.layout().breaks_tau, breaks);
+        assert_eq!(mesh.layout().points, points);
+        for (k, iv) in mesh.intervals.iter().enumerate() {
+            assert_eq!(mesh.nodes[iv.start], breaks[k]);
+            assert_eq!(mesh.nodes[iv.start + iv.points], breaks[k + 1]);
+            // Interval weights sum to its width h_k.
+            let w: f64 = mesh.weights[iv.start..iv.start + iv.points].iter().sum();
+            assert!((w - (breaks[k + 1] - breaks[k])).abs() < 1e-14, "{k}");
+            let deg = iv.points as i32;
+            let p = |t: f64| {
+                (0..=deg)
+                    .map(|j| (0.7 - 0.2 * j as f64) * t.powi(j))
+                    .sum::<f64>()
+            };
+            let dp = |t: f64| {
+                (1..=deg)
+                    .map(|j| (0.7 - 0.2 * j as f64) * j as f64 * t.powi(j - 1))
+                    .sum::<f64>()
+            };
+            let vals: Vec<f64> = mesh.nodes.iter().map(|&t| p(t)).collect();
+            for i in iv.start..iv.start + iv.points {
+                let (s, row) = mesh.d_row(i);
+                assert_eq!(s, iv.start);
+                assert_eq!(row.len(), iv.points + 1);
+                let constant: f64 = row.iter().sum();
+                let scale: f64 = row.iter().map(|v| v.abs()).sum();
+                assert!(constant.abs() < 1e-13 * scale, "{k}/{i}: {constant}");
+                let d: f64 = row.iter().enumerate().map(|(j, v)| v * vals[s + j]).sum();
+                let want = dp(mesh.nodes[i]);
+                assert!(
+                    (d - want).abs() < 1e-9 * scale.max(1.0),
+                    "{k}/{i}: {d} {want}"
+                );
+            }
+            for a in [0.1, 0.5, 0.93] {
+                let t = breaks[k] + a * (breaks[k + 1] - breaks[k]);
+                assert_eq!(mesh.interval_of(t), k);
+                assert!((mesh.interpolate_states(&vals, t) - p(t)).abs() < 1e-11);
             }
         }
     }

@@ -22,7 +22,6 @@
 use serde::Serialize;
 
 use crate::dynamics::{self, Model};
-use crate::mesh::Mesh;
 use crate::propagate::{Dop853, IntegrationError, Stats};
 use crate::radau::{interpolate, Lgr};
 use crate::scenario::Scenario;
@@ -41,9 +40,8 @@ pub struct IntervalError {
     pub worst_state: &'static str,
 }
 
-/// The estimate on every interval of `solution`'s mesh (the uniform mesh of
-/// its `nodes` points over `intervals` intervals), with the vehicle model of
-/// `scenario`.
+/// The estimate on every interval of `solution`'s mesh ([`Solution::mesh`]),
+/// with the vehicle model of `scenario`.
 pub fn estimate(
     scenario: &Scenario,
     solution: &Solution,
@@ -51,9 +49,13 @@ pub fn estimate(
     let s = solution;
     let n = s.nodes;
     let states = s.state_columns();
+    if let Err(e) = crate::validate::mesh_layout("mesh_layout", &s.mesh) {
+        return Err(IntegrationError::BadSolution(format!(
+            "a mesh error estimate needs the solution's mesh: {e}"
+        )));
+    }
     if n < 1
-        || s.intervals < 1
-        || s.intervals > n
+        || s.mesh.nodes() != n
         || states.iter().any(|v| v.len() != n + 1)
         || s.thrust_n.len() < n
         || s.gimbal_rate_radps.len() < n
@@ -64,7 +66,7 @@ pub fn estimate(
             n + 1
         )));
     }
-    let mesh = Mesh::uniform(n, s.intervals);
+    let mesh = s.mesh();
     let model = Model::new(&scenario.vehicle, &scenario.environment);
     let scale: [f64; 8] =
         std::array::from_fn(|i| 1.0 + states[i].iter().fold(0.0f64, |m, v| m.max(v.abs())));
@@ -138,6 +140,7 @@ pub fn estimate(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::Mesh;
     use crate::scenario::Scenario;
 
     /// A trajectory whose controls are linear in time (so that every mesh's
@@ -210,7 +213,7 @@ mod tests {
     /// each interval, measured on the dense samples: what the estimate
     /// approximates.
     fn dense_error(sol: &Solution, ts: &[f64], ys: &[[f64; 8]]) -> Vec<f64> {
-        let mesh = Mesh::uniform(sol.nodes, sol.intervals);
+        let mesh = sol.mesh();
         let states = sol.state_columns();
         let mut out = vec![0.0f64; mesh.intervals.len()];
         for (t, y) in ts.iter().zip(ys) {

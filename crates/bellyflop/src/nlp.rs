@@ -140,7 +140,7 @@ impl Nlp {
     /// ground bound z ≥ z_f at every node and the soft terms of `sv`.
     pub fn new(s: &Scenario, sv: &SolverSettings) -> Self {
         let d = &s.discretization;
-        let mesh = Mesh::uniform(d.nodes, d.intervals);
+        let mesh = Mesh::of(d);
         let model = Model::new(&s.vehicle, &s.environment);
         let sc = Scaling::new(s, &model, Formulation::Exact);
         let (i, t) = (&s.initial, &s.terminal);
@@ -552,27 +552,70 @@ impl Nlp {
         for k in 0..=self.n {
             let x = &t.x[k];
             let m = x[ix::OMEGA].exp();
-            for s in 0..6 {
-                w[self.idx(k, s)] = self.scaled(s, x[s]);
-            }
-            w[self.idx(k, slot::M)] = self.scaled(slot::M, m);
-            w[self.idx(k, slot::DELTA)] = self.scaled(slot::DELTA, x[ix::DELTA]);
-            if k < self.n {
-                let thrust = t.u[k][0] * m;
-                if self.soft.margin_weight > 0.0 {
-                    // Within the band, and the rest in the slacks.
-                    let (lo, hi) = self.soft.margin_band_n;
-                    w[self.idx(k, slot::T)] = self.scaled(slot::T, thrust.clamp(lo, hi));
-                    w[self.idx(k, slot::ABOVE)] = self.scaled(slot::ABOVE, (thrust - hi).max(0.0));
-                    w[self.idx(k, slot::BELOW)] = self.scaled(slot::BELOW, (lo - thrust).max(0.0));
-                } else {
-                    w[self.idx(k, slot::T)] = self.scaled(slot::T, thrust);
-                }
-                w[self.idx(k, slot::CHI)] = self.scaled(slot::CHI, t.u[k][1]);
-            }
+            let mut state = [0.0; NS];
+            state[..6].copy_from_slice(&x[..6]);
+            state[slot::M] = m;
+            state[slot::DELTA] = x[ix::DELTA];
+            let control = (k < self.n).then(|| (t.u[k][0] * m, t.u[k][1]));
+            self.set_node(&mut w, k, &state, control);
         }
         w[self.tf_idx()] = t.tf_s / self.tf_scale;
         w
+    }
+
+    /// The scaled start point on this NLP's mesh from a solution on any
+    /// mesh ([`Solution::mesh`](crate::Solution::mesh)), for warm starts
+    /// across meshes (hp refinement): the states at each node τ_k from the
+    /// solution's piecewise state polynomials ([`Mesh::interpolate_states`],
+    /// mass in kg as P2 carries it), thrust \[N\] and χ at each collocation
+    /// point from its control polynomials ([`Mesh::interpolate_controls`]),
+    /// and its t_f. As in [`Nlp::from_trajectory`], a thrust outside the soft
+    /// margin's band goes into the slacks. On the solution's own mesh this is
+    /// [`Nlp::from_trajectory`] of its trajectory (the node values return
+    /// unchanged). Bounds are not enforced; the interior-point method pushes
+    /// the point inside them.
+    ///
+    /// # Panics
+    /// Panics if the solution's arrays do not fit its mesh (N + 1 nodes per
+    /// state, N controls), which a solve never returns.
+    pub fn interpolate_from(&self, sol: &crate::Solution) -> Vec<f64> {
+        let from = sol.mesh();
+        let states = sol.state_columns();
+        let (thrust_n, chi_radps) = (&sol.thrust_n[..from.n], &sol.gimbal_rate_radps[..from.n]);
+        let mut w = vec![0.0; self.n_var()];
+        for (k, &tau) in self.mesh.nodes.iter().enumerate() {
+            let state: [f64; NS] = std::array::from_fn(|c| from.interpolate_states(states[c], tau));
+            let control = (k < self.n).then(|| {
+                (
+                    from.interpolate_controls(thrust_n, tau),
+                    from.interpolate_controls(chi_radps, tau),
+                )
+            });
+            self.set_node(&mut w, k, &state, control);
+        }
+        w[self.tf_idx()] = sol.tf_s / self.tf_scale;
+        w
+    }
+
+    /// Node k of the scaled vector from P2's physical state (mass in kg)
+    /// and, at a collocation point, the thrust \[N\] and χ \[rad/s\]: with the
+    /// soft margin on, the thrust within its band [T_lo, T_hi] and the rest
+    /// in the slacks, A = max(T − T_hi, 0), B = max(T_lo − T, 0).
+    fn set_node(&self, w: &mut [f64], k: usize, state: &[f64; NS], control: Option<(f64, f64)>) {
+        for (s, &v) in state.iter().enumerate() {
+            w[self.idx(k, s)] = self.scaled(s, v);
+        }
+        if let Some((thrust, chi)) = control {
+            if self.soft.margin_weight > 0.0 {
+                let (lo, hi) = self.soft.margin_band_n;
+                w[self.idx(k, slot::T)] = self.scaled(slot::T, thrust.clamp(lo, hi));
+                w[self.idx(k, slot::ABOVE)] = self.scaled(slot::ABOVE, (thrust - hi).max(0.0));
+                w[self.idx(k, slot::BELOW)] = self.scaled(slot::BELOW, (lo - thrust).max(0.0));
+            } else {
+                w[self.idx(k, slot::T)] = self.scaled(slot::T, thrust);
+            }
+            w[self.idx(k, slot::CHI)] = self.scaled(slot::CHI, chi);
+        }
     }
 }
 

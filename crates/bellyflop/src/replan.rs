@@ -62,7 +62,7 @@ impl Plan {
             .collect();
         Plan {
             trajectory: s.trajectory.clone(),
-            mesh: Mesh::uniform(s.nodes, s.intervals),
+            mesh: s.mesh(),
             form: s.formulation,
             sigma_pchip: Interpolant::new(Interpolation::Pchip, &s.t_s, &sigma),
             delta_pchip: Interpolant::new(Interpolation::Pchip, &s.t_s, &s.delta_rad),

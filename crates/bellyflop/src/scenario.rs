@@ -7,6 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::InputError;
+use crate::mesh::MeshLayout;
 pub use crate::settings::{Formulation, Method, SolverSettings};
 
 /// Vehicle parameters (paper Table 1, plus the drag coefficient from NOTES.md).
@@ -108,7 +109,8 @@ impl TerminalState {
     }
 }
 
-/// Discretization: LGR collocation with N points (Section 3.2).
+/// Discretization: LGR collocation with N points (Section 3.2) on M intervals
+/// (uniform, or the explicit mesh of `mesh`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Discretization {
@@ -122,6 +124,12 @@ pub struct Discretization {
     pub tf_guess_s: f64,
     /// Initial guess of the final mass \[kg\] for the straight-line guess.
     pub final_mass_guess_kg: f64,
+    /// An explicit hp mesh (`[discretization.mesh]`: `breaks_tau`, `points`)
+    /// in place of the uniform split of `nodes` over `intervals`. It does not
+    /// override them silently: validation requires `nodes` = Σ points and
+    /// `intervals` = M, so the two counts always describe the mesh solved on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<MeshLayout>,
 }
 
 fn one() -> usize {
@@ -238,5 +246,56 @@ impl Scenario {
     /// The paper's case (Table 1, Section 4 boundary conditions, C_LD = 195.52 kg/m).
     pub fn paper() -> Self {
         Case::paper().scenario
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The paper's file with an explicit 3-interval mesh of 20 points.
+    fn with_mesh(mesh_table: &str) -> String {
+        let from = "final_mass_guess_kg = 110000.0\n";
+        assert!(PAPER_TOML.contains(from));
+        PAPER_TOML.replace(
+            from,
+            &format!("{from}intervals = 3\n\n[discretization.mesh]\n{mesh_table}\n"),
+        )
+    }
+
+    #[test]
+    fn an_explicit_mesh_reads_writes_and_reads_back() {
+        let text = with_mesh("breaks_tau = [-1, -0.25, 0.5, 1.0]\npoints = [8, 7, 5]");
+        let case = Case::from_toml_str(&text).expect("valid");
+        let layout = case.scenario.discretization.mesh.clone().expect("a mesh");
+        assert_eq!(layout.breaks_tau, [-1.0, -0.25, 0.5, 1.0]);
+        assert_eq!(layout.points, [8, 7, 5]);
+        let written = toml::to_string(&case).expect("serializes");
+        assert!(written.contains("[discretization.mesh]"), "{written}");
+        assert_eq!(Case::from_toml_str(&written).expect("reads back"), case);
+        // Without a mesh, none is written.
+        let paper = toml::to_string(&Case::paper()).unwrap();
+        assert!(!paper.contains("mesh"), "{paper}");
+    }
+
+    #[test]
+    fn unknown_fields_of_the_mesh_table_are_rejected() {
+        let text =
+            with_mesh("breaks_tau = [-1, -0.25, 0.5, 1.0]\npoints = [8, 7, 5]\nweights = [1]");
+        let e = Case::from_toml_str(&text).unwrap_err();
+        assert!(
+            matches!(&e, InputError::Toml { message, .. } if message.contains("weights")),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_mesh_that_disagrees_with_the_node_count_is_rejected() {
+        let text = with_mesh("breaks_tau = [-1, -0.25, 0.5, 1.0]\npoints = [8, 7, 6]");
+        let e = Case::from_toml_str(&text).unwrap_err();
+        assert!(
+            matches!(&e, InputError::Inconsistent { field, .. } if field == "discretization.nodes"),
+            "{e}"
+        );
     }
 }

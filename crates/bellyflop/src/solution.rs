@@ -3,6 +3,7 @@
 use serde::Serialize;
 
 use crate::dynamics::{self, ix};
+use crate::mesh::{Mesh, MeshLayout};
 use crate::scenario::{Formulation, Method};
 use crate::transcription::{Trajectory, Transcription};
 
@@ -173,6 +174,12 @@ pub struct Solution {
     pub nodes: usize,
     /// LGR mesh intervals (1: the paper's global mesh).
     pub intervals: usize,
+    /// The mesh solved on: its breaks in τ and points per interval
+    /// ([`Solution::mesh`] rebuilds it). In JSON `mesh_layout`, since the
+    /// CLI's `mesh` key holds the per-interval error estimate
+    /// ([`crate::report::add_mesh_json`]).
+    #[serde(rename = "mesh_layout")]
+    pub mesh: MeshLayout,
     pub tf_s: f64,
     pub final_mass_kg: f64,
     pub fuel_kg: f64,
@@ -291,6 +298,7 @@ impl Solution {
             formulation: tr.form,
             nodes: n,
             intervals: tr.mesh.intervals.len(),
+            mesh: tr.mesh.layout(),
             tf_s: t.tf_s,
             final_mass_kg,
             fuel_kg: mass_kg[0] - final_mass_kg,
@@ -325,7 +333,16 @@ impl Solution {
         }
     }
 
-    /// One JSON object with the status, scalars, node arrays, checks and history.
+    /// The mesh the solution was solved on (its node arrays live on
+    /// [`Mesh::nodes`] of it).
+    ///
+    /// # Panics
+    /// Panics if `mesh` was edited into an invalid layout; every solve
+    /// fills it from its transcription's mesh.
+    pub fn mesh(&self) -> Mesh {
+        Mesh::from_layout(&self.mesh)
+    }
+
     /// The node arrays of the 8 states of P2, in its order: x, z, Vx, Vz,
     /// θ, w, m, δ (named by [`STATE_COLUMN_NAMES`]).
     pub fn state_columns(&self) -> [&[f64]; 8] {
@@ -341,6 +358,7 @@ impl Solution {
         ]
     }
 
+    /// One JSON object with the status, scalars, node arrays, checks and history.
     pub fn to_json(&self) -> serde_json::Value {
         let mut v = serde_json::to_value(self).expect("a Solution serializes");
         v["status"] = self.status.as_str().into();

@@ -13,6 +13,7 @@
 //! unusual vehicles. The paper's case (Chen, Ma, Wang, Su 2023, Table 1 and
 //! Section 4) sits well inside every range.
 use crate::error::InputError;
+use crate::mesh::MeshLayout;
 use crate::scenario::{
     Discretization, Environment, InitialState, Scenario, SolverSettings, TerminalState, Vehicle,
 };
@@ -157,6 +158,14 @@ const GIMBAL: Range = Range::open(-90.0, 90.0, "deg");
 const NODES: (usize, usize) = (4, 100);
 /// LGR mesh intervals M (further limited to N/2).
 const INTERVALS: (usize, usize) = (1, 50);
+/// LGR points n_k of one interval of an explicit mesh: at least 2, as the
+/// uniform split's M ≤ N/2 demands, at most the cap on N.
+const INTERVAL_POINTS: (usize, usize) = (2, 100);
+/// Narrowest interval of an explicit mesh, in τ (whose span is 2): the rows
+/// (2/h_k)·D^(k) of Eq. 24 grow as 1/h_k, and a width such as 1e-300 would
+/// overflow them to ±inf. 1e-6 is far below any useful refinement of at
+/// most 100 points.
+const MESH_WIDTH_MIN: f64 = 1e-6;
 /// Final-time guess t_f: positive, at most 1000 s (a landing burn lasts tens
 /// of seconds; the paper's is about 12 s).
 const TF_GUESS: Range = Range::open_closed(0.0, 1000.0, "s");
@@ -292,10 +301,45 @@ fn terminal(t: &TerminalState) -> Result<(), InputError> {
     ])
 }
 
-/// Discretization ranges: see [`NODES`], [`TF_GUESS`], [`MASS`].
+/// Discretization ranges: see [`NODES`], [`TF_GUESS`], [`MASS`]; an
+/// explicit mesh ([`mesh_layout`]) must also agree with the counts: N = Σ n_k
+/// and M = its number of intervals.
 fn discretization(d: &Discretization) -> Result<(), InputError> {
     count_in_range("discretization.nodes", d.nodes, NODES)?;
     count_in_range("discretization.intervals", d.intervals, INTERVALS)?;
+    if let Some(mesh) = &d.mesh {
+        mesh_layout("discretization.mesh", mesh)?;
+        let (total, m) = (mesh.nodes(), mesh.intervals());
+        if !(NODES.0..=NODES.1).contains(&total) {
+            return Err(InputError::OutOfRange {
+                field: "discretization.mesh.points".into(),
+                value: total as f64,
+                allowed: format!(
+                    "a sum of {} to {} points (the range of discretization.nodes)",
+                    NODES.0, NODES.1
+                ),
+            });
+        }
+        let checks: [(bool, &str, f64, String); 2] = [
+            (
+                d.nodes == total,
+                "discretization.nodes",
+                d.nodes as f64,
+                format!(
+                    "must equal the sum of discretization.mesh.points, {total} (N counts the mesh's points)"
+                ),
+            ),
+            (
+                d.intervals == m,
+                "discretization.intervals",
+                d.intervals as f64,
+                format!(
+                    "must equal the number of intervals of discretization.mesh, {m} (the entries of its points)"
+                ),
+            ),
+        ];
+        first_inconsistency(checks)?;
+    }
     if d.intervals > d.nodes / 2 {
         return Err(InputError::Inconsistent {
             field: "discretization.intervals".into(),
@@ -315,6 +359,75 @@ fn discretization(d: &Discretization) -> Result<(), InputError> {
             MASS,
         ),
     ])
+}
+
+/// An explicit mesh's shape (`field` names it, e.g. `discretization.mesh`):
+/// M = points.len() in [`INTERVALS`], M + 1 breaks, each finite in [−1, 1],
+/// the first −1 and the last +1, each at least [`MESH_WIDTH_MIN`] above the
+/// one before (strictly increasing), and [`INTERVAL_POINTS`] per interval.
+pub(crate) fn mesh_layout(field: &str, mesh: &MeshLayout) -> Result<(), InputError> {
+    let m = mesh.points.len();
+    if !(INTERVALS.0..=INTERVALS.1).contains(&m) {
+        return Err(InputError::OutOfRange {
+            field: format!("{field}.points"),
+            value: m as f64,
+            allowed: format!(
+                "{} to {} entries, one per interval",
+                INTERVALS.0, INTERVALS.1
+            ),
+        });
+    }
+    let breaks = &mesh.breaks_tau;
+    if breaks.len() != m + 1 {
+        return Err(InputError::Inconsistent {
+            field: format!("{field}.breaks_tau"),
+            value: breaks.len() as f64,
+            reason: format!(
+                "has {} entries, but the M = {m} intervals of {field}.points need M + 1 = {} breaks",
+                breaks.len(),
+                m + 1
+            ),
+        });
+    }
+    for (k, &b) in breaks.iter().enumerate() {
+        in_range(
+            &format!("{field}.breaks_tau[{k}]"),
+            b,
+            -1.0,
+            1.0,
+            false,
+            false,
+            "",
+        )?;
+    }
+    for (k, want) in [(0, -1.0), (m, 1.0)] {
+        if breaks[k] != want {
+            return Err(InputError::Inconsistent {
+                field: format!("{field}.breaks_tau[{k}]"),
+                value: breaks[k],
+                reason: format!(
+                    "the {} break must be {want}: the intervals cover τ ∈ [-1, 1]",
+                    if k == 0 { "first" } else { "last" }
+                ),
+            });
+        }
+    }
+    for k in 0..m {
+        if breaks[k + 1] - breaks[k] < MESH_WIDTH_MIN {
+            return Err(InputError::Inconsistent {
+                field: format!("{field}.breaks_tau[{}]", k + 1),
+                value: breaks[k + 1],
+                reason: format!(
+                    "must exceed {field}.breaks_tau[{k}] = {} by at least {MESH_WIDTH_MIN:e} (breaks strictly increase, and a narrower interval overflows its differentiation rows 2/h_k)",
+                    breaks[k]
+                ),
+            });
+        }
+    }
+    for (k, &p) in mesh.points.iter().enumerate() {
+        count_in_range(&format!("{field}.points[{k}]"), p, INTERVAL_POINTS)?;
+    }
+    Ok(())
 }
 
 /// Solver ranges: see [`MAX_ITERATIONS`], [`TOLERANCE`], [`WEIGHT`],
@@ -663,5 +776,162 @@ mod tests {
             err.to_string(),
             "vehicle.dry_mass_kg = -1 is out of range: allowed (0, 1e7] kg"
         );
+    }
+
+    /// The paper's scenario on an explicit mesh of `breaks` and `points`,
+    /// with N and M set to agree with it.
+    fn on_mesh(breaks: &[f64], points: &[usize]) -> Scenario {
+        let mut s = Scenario::paper();
+        let d = &mut s.discretization;
+        d.nodes = points.iter().sum();
+        d.intervals = points.len();
+        d.mesh = Some(MeshLayout {
+            breaks_tau: breaks.to_vec(),
+            points: points.to_vec(),
+        });
+        s
+    }
+
+    /// The field of a rejected scenario, and whether it was out of range
+    /// (else inconsistent); the message names the field.
+    fn rejected(s: &Scenario) -> (String, bool) {
+        let e = scenario(s).expect_err("must be rejected");
+        let text = e.to_string();
+        match e {
+            InputError::OutOfRange { field, .. } => {
+                assert!(text.starts_with(&field), "{text}");
+                (field, true)
+            }
+            InputError::Inconsistent { field, .. } => {
+                assert!(text.starts_with(&field), "{text}");
+                (field, false)
+            }
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_consistent_explicit_mesh_validates() {
+        assert_eq!(
+            scenario(&on_mesh(&[-1.0, -0.7, 0.1, 1.0], &[4, 9, 7])),
+            Ok(())
+        );
+        // The uniform layout, spelled out.
+        let u = crate::mesh::MeshLayout::uniform(20, 4);
+        assert_eq!(scenario(&on_mesh(&u.breaks_tau, &u.points)), Ok(()));
+    }
+
+    #[test]
+    fn mesh_interval_count_outside_1_to_50_is_out_of_range() {
+        let mut s = on_mesh(&[-1.0], &[]);
+        (s.discretization.nodes, s.discretization.intervals) = (20, 1);
+        let (f, range) = rejected(&s);
+        assert_eq!((f.as_str(), range), ("discretization.mesh.points", true));
+        let breaks: Vec<f64> = (0..=51).map(|k| -1.0 + 2.0 * k as f64 / 51.0).collect();
+        let mut s = on_mesh(&breaks, &[2; 51]);
+        (s.discretization.nodes, s.discretization.intervals) = (100, 50);
+        let (f, range) = rejected(&s);
+        assert_eq!((f.as_str(), range), ("discretization.mesh.points", true));
+    }
+
+    #[test]
+    fn mesh_break_count_must_be_one_more_than_intervals() {
+        for breaks in [&[-1.0, 1.0][..], &[-1.0, -0.5, 0.0, 0.5, 1.0]] {
+            let (f, range) = rejected(&on_mesh(breaks, &[5, 5, 5]));
+            assert_eq!(
+                (f.as_str(), range),
+                ("discretization.mesh.breaks_tau", false)
+            );
+        }
+    }
+
+    #[test]
+    fn non_finite_or_outside_breaks_are_out_of_range() {
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1.5, -3.0] {
+            let (f, range) = rejected(&on_mesh(&[-1.0, bad, 1.0], &[5, 5]));
+            assert_eq!(
+                (f.as_str(), range),
+                ("discretization.mesh.breaks_tau[1]", true),
+                "{bad}"
+            );
+        }
+        let e = scenario(&on_mesh(&[-1.0, 1.5, 1.0], &[5, 5])).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "discretization.mesh.breaks_tau[1] = 1.5 is out of range: allowed [-1, 1]"
+        );
+    }
+
+    #[test]
+    fn breaks_must_start_at_minus_one_and_end_at_one() {
+        let (f, range) = rejected(&on_mesh(&[-0.9, 0.0, 1.0], &[5, 5]));
+        assert_eq!(
+            (f.as_str(), range),
+            ("discretization.mesh.breaks_tau[0]", false)
+        );
+        let (f, range) = rejected(&on_mesh(&[-1.0, 0.0, 0.99], &[5, 5]));
+        assert_eq!(
+            (f.as_str(), range),
+            ("discretization.mesh.breaks_tau[2]", false)
+        );
+    }
+
+    #[test]
+    fn breaks_must_strictly_increase_by_the_minimum_width() {
+        for breaks in [
+            [-1.0, 0.2, 0.2, 1.0],
+            [-1.0, 0.3, 0.2, 1.0],
+            [-1.0, 0.2, 0.2 + 1e-9, 1.0],
+        ] {
+            let (f, range) = rejected(&on_mesh(&breaks, &[5, 5, 5]));
+            assert_eq!(
+                (f.as_str(), range),
+                ("discretization.mesh.breaks_tau[2]", false),
+                "{breaks:?}"
+            );
+        }
+        let (f, _) = rejected(&on_mesh(&[-1.0, -1.0, 1.0], &[5, 5]));
+        assert_eq!(f, "discretization.mesh.breaks_tau[1]");
+    }
+
+    #[test]
+    fn interval_points_outside_2_to_100_are_out_of_range() {
+        for p in [0, 1, 101] {
+            let mut s = on_mesh(&[-1.0, 0.0, 1.0], &[5, p]);
+            s.discretization.nodes = 20;
+            let (f, range) = rejected(&s);
+            assert_eq!(
+                (f.as_str(), range),
+                ("discretization.mesh.points[1]", true),
+                "{p}"
+            );
+        }
+    }
+
+    #[test]
+    fn mesh_point_total_outside_the_node_range_is_out_of_range() {
+        for points in [&[3][..], &[60, 41]] {
+            let breaks: Vec<f64> = crate::mesh::MeshLayout::uniform(10, points.len()).breaks_tau;
+            let mut s = on_mesh(&breaks, points);
+            s.discretization.nodes = 20;
+            let (f, range) = rejected(&s);
+            assert_eq!((f.as_str(), range), ("discretization.mesh.points", true));
+        }
+    }
+
+    #[test]
+    fn nodes_and_intervals_must_agree_with_the_mesh() {
+        let mut s = on_mesh(&[-1.0, 0.0, 1.0], &[6, 6]);
+        s.discretization.nodes = 13;
+        let (f, range) = rejected(&s);
+        assert_eq!((f.as_str(), range), ("discretization.nodes", false));
+        let mut s = on_mesh(&[-1.0, 0.0, 1.0], &[6, 6]);
+        s.discretization.intervals = 1;
+        let (f, range) = rejected(&s);
+        assert_eq!((f.as_str(), range), ("discretization.intervals", false));
+        assert!(scenario(&s)
+            .unwrap_err()
+            .to_string()
+            .contains("must equal the number of intervals of discretization.mesh, 2"));
     }
 }
