@@ -1578,5 +1578,16 @@ mod mesh_tests {
         let errors = crate::mesh_error::estimate(&s, &sol).expect("estimate");
         let points: Vec<usize> = errors.iter().map(|e| e.points).collect();
         assert_eq!(points, layout.points);
+        // SCvx on the same mesh (the method alone, as the direct answer above).
+        let mut scvx = sv.clone();
+        scvx.method = crate::scenario::Method::Scvx;
+        let other = crate::scvx::solve(&s, &scvx, &mut Silent);
+        eprintln!(
+            "scvx non-uniform: {:?} m_f {:.3} kg, {} iterations",
+            other.status, other.final_mass_kg, other.iterations
+        );
+        assert_eq!(other.status, Status::Solved, "{}", other.message);
+        assert_eq!(other.mesh, layout);
+        assert!((other.final_mass_kg - sol.final_mass_kg).abs() < 0.005 * sol.fuel_kg);
     }
 }
