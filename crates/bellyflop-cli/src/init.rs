@@ -200,8 +200,8 @@ pub const DOCS: &[Doc] = &[
     doc!("terminal", "theta_deg", "deg", THETA, "Pitch at touchdown; 0 is upright."),
     doc!("terminal", "pitch_rate_degps", "deg/s", PITCH_RATE, "Pitch rate at touchdown."),
     // Discretization (Section 3.2).
-    doc!("discretization", "nodes", "", Allowed::Count { lo: 4, hi: 100 },
-        "Number of LGR collocation points N (the paper uses 20)."),
+    doc!("discretization", "nodes", "", Allowed::Count { lo: 4, hi: 200 },
+        "Number of LGR collocation points N (the paper uses 20); at most 100 on the global mesh (intervals = 1)."),
     doc!("discretization", "intervals", "", Allowed::Count { lo: 1, hi: 50 },
         "LGR mesh intervals M, at most N/2 (1, the default, is the paper's global mesh; more make each subproblem cheaper but SCvx slower to converge)."),
     doc!("discretization", "tf_guess_s", "s", open_closed(0.0, 1000.0),
@@ -264,6 +264,17 @@ pub const DOCS: &[Doc] = &[
         "Largest landing position error |(x, z)(t_f) - (x_f, z_f)| of a solved answer when its controls are re-integrated (DOP853, PCHIP); beyond it the status is inaccurate (exit 9). The paper's case lands 0.81 m off at N = 20; 1e6 turns the check off."),
     doc!("solver", "landing_velocity_tolerance_mps", "m/s", closed(1e-3, 1e4),
         "Largest landing velocity error |(Vx, Vz)(t_f) - (Vx_f, Vz_f)| of a solved answer, re-integrated as above. The paper's case lands 0.32 m/s off at N = 20; 1e4 turns the check off."),
+    // Mesh refinement (issue 16).
+    doc!("solver.refinement", "tolerance", "", closed(0.0, 0.1),
+        "Refine the mesh until every interval's relative error (its state polynomials against an integration of the dynamics with its controls) is at most this; 0, the default, solves on the scenario's mesh alone. --mesh-tolerance on the command line."),
+    doc!("solver.refinement", "max_passes", "", Allowed::Count { lo: 1, hi: 20 },
+        "Refinement passes, the first solve included."),
+    doc!("solver.refinement", "min_points", "", Allowed::Count { lo: 2, hi: 20 },
+        "Points of each interval that a split makes."),
+    doc!("solver.refinement", "max_points", "", Allowed::Count { lo: 2, hi: 20 },
+        "Most points of an interval before it is split instead of raised; at least min_points."),
+    doc!("solver.refinement", "max_total_points", "", Allowed::Count { lo: 4, hi: 200 },
+        "Refinement stops before a mesh of more collocation points than this."),
 ];
 
 /// Order and headings of the TOML tables.
@@ -284,6 +295,10 @@ const TABLES: &[(&str, &str)] = &[
     (
         "solver.direct",
         "The direct method: a primal-dual interior-point filter line search on P2 (Wachter & Biegler 2006). Optional.",
+    ),
+    (
+        "solver.refinement",
+        "hp mesh refinement to a tolerance, with interval breaks at the control switches. Optional; off unless tolerance > 0.",
     ),
 ];
 

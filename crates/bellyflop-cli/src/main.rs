@@ -72,7 +72,7 @@ struct SolveArgs {
     /// Scenario TOML file; the paper's case when omitted.
     #[arg(long)]
     scenario: Option<PathBuf>,
-    /// Number of LGR collocation points N (4 to 100); overrides the scenario
+    /// Number of LGR collocation points N (4 to 200; at most 100 on the global mesh); overrides the scenario
     /// (a `[discretization.mesh]` of the file gives way to the uniform mesh).
     #[arg(long)]
     nodes: Option<usize>,
@@ -89,6 +89,11 @@ struct SolveArgs {
     /// scenario's `solver.method`.
     #[arg(long, value_enum)]
     method: Option<MethodArg>,
+    /// Refine the mesh (hp, with breaks at the control switches) until every
+    /// interval's relative error is at most TOL; overrides the scenario's
+    /// `solver.refinement.tolerance` (0: no refinement).
+    #[arg(long, value_name = "TOL")]
+    mesh_tolerance: Option<f64>,
     /// Print one JSON object on stdout instead of a summary.
     #[arg(long)]
     json: bool,
@@ -153,6 +158,9 @@ fn load(args: &SolveArgs) -> Result<Case, bellyflop::InputError> {
             MethodArg::Scvx => Method::Scvx,
             MethodArg::Direct => Method::Direct,
         };
+    }
+    if let Some(tol) = args.mesh_tolerance {
+        case.solver.refinement.tolerance = tol;
     }
     case.validate()?;
     Ok(case)
@@ -261,6 +269,31 @@ impl bellyflop::Observer for Progress {
         }
     }
 
+    fn pass(&mut self, p: &bellyflop::refine::Pass) {
+        if !self.quiet {
+            eprintln!(
+                "pass {:>2}  N {:>3} over {:>2} intervals  {:<9}  {:>3} iterations  {:>7.2} ms  m_f {:>10.2} kg  max error {:>8.1e}  events at {}",
+                p.pass,
+                p.nodes,
+                p.mesh.points.len(),
+                p.status.as_str(),
+                p.iterations,
+                p.solve_time_ms,
+                p.final_mass_kg,
+                p.max_relative_error,
+                if p.events_s.is_empty() {
+                    "none".to_string()
+                } else {
+                    p.events_s
+                        .iter()
+                        .map(|t| format!("{t:.3} s"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                }
+            );
+        }
+    }
+
     fn on_direct_iteration(&mut self, r: &DirectIteration) {
         if !self.quiet {
             eprintln!(
@@ -314,7 +347,15 @@ fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, t
     }
     let mesh = match s.intervals {
         1 => "global mesh".to_string(),
-        m => format!("{m} intervals"),
+        m => format!(
+            "{m} intervals ({} points)",
+            s.mesh
+                .points
+                .iter()
+                .map(|p| p.to_string())
+                .collect::<Vec<_>>()
+                .join("+")
+        ),
     };
     match s.method {
         Method::Direct => println!(
@@ -326,6 +367,27 @@ fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, t
             s.formulation_label(settings.formulation),
             s.nodes
         ),
+    }
+    if let Some(r) = &s.refinement {
+        let stop = match r.stop {
+            bellyflop::refine::Stop::ToleranceMet => "tolerance met",
+            bellyflop::refine::Stop::PointLimit => {
+                "stopped: the next mesh would exceed solver.refinement.max_total_points"
+            }
+            bellyflop::refine::Stop::PassLimit => "stopped: solver.refinement.max_passes reached",
+            bellyflop::refine::Stop::SolveFailed => {
+                "stopped: a pass did not solve; the last solved pass is returned"
+            }
+            bellyflop::refine::Stop::EstimateFailed => {
+                "stopped: the mesh error could not be estimated"
+            }
+        };
+        let last = r.passes.last().map_or(f64::NAN, |p| p.max_relative_error);
+        println!(
+            "refinement    {} passes to a tolerance of {:.0e}, max error {last:.1e}: {stop}",
+            r.passes.len(),
+            r.tolerance
+        );
     }
     println!("t_f           {:.4} s", s.tf_s);
     println!(

@@ -44,6 +44,8 @@ const BODY: RGBColor = RGBColor(40, 40, 40);
 const GROUND: RGBColor = RGBColor(120, 85, 50);
 const SWITCH: RGBColor = RGBColor(0, 140, 70);
 const GREY: RGBColor = RGBColor(130, 130, 130);
+/// Mesh interval breaks.
+const BREAK: RGBColor = RGBColor(150, 110, 190);
 const REJECTED: RGBColor = RGBColor(200, 30, 30);
 
 /// Everything the plots draw.
@@ -60,6 +62,9 @@ pub struct PlotData<'a> {
     /// Times where the thrust crosses the middle of [T_min, T_max]
     /// (between nodes, linearly interpolated), with `true` for upward.
     pub switches: Vec<(f64, bool)>,
+    /// The times of the mesh's inner interval breaks \[s\] (none on the
+    /// global mesh).
+    pub breaks_s: Vec<f64>,
 }
 
 impl<'a> PlotData<'a> {
@@ -83,6 +88,13 @@ impl<'a> PlotData<'a> {
                 }
             }
         }
+        let b = &solution.mesh.breaks_tau;
+        let breaks_s = b
+            .iter()
+            .skip(1)
+            .take(b.len().saturating_sub(2))
+            .map(|tau| 0.5 * (tau + 1.0) * solution.tf_s)
+            .collect();
         PlotData {
             scenario,
             settings,
@@ -91,6 +103,7 @@ impl<'a> PlotData<'a> {
             nodes,
             overlay,
             switches,
+            breaks_s,
         }
     }
 
@@ -1105,6 +1118,14 @@ fn draw_history<DB: DrawingBackend>(
         .y_label_formatter(&|v| tick(*v))
         .draw()?;
 
+    // Mesh interval breaks: a thin solid line in every panel.
+    for &tb in &d.breaks_s {
+        let yr = chart.y_range();
+        chart.draw_series(LineSeries::new(
+            vec![(tb, yr.start), (tb, yr.end)],
+            BREAK.stroke_width(1),
+        ))?;
+    }
     // Thrust switches: a vertical line in every panel.
     for &(ts, _) in &d.switches {
         let yr = chart.y_range();
@@ -1173,6 +1194,14 @@ fn draw_history<DB: DrawingBackend>(
         }
     }
     if legend {
+        if !d.breaks_s.is_empty() {
+            chart
+                .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
+                .label("mesh interval break")
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 22, y)], BREAK.stroke_width(1))
+                });
+        }
         if !d.switches.is_empty() {
             chart
                 .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?

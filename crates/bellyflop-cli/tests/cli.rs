@@ -125,7 +125,7 @@ fn out_of_range_names_field_value_and_range() {
     let (code, _, stderr) = bellyflop(&["solve", "--nodes", "3"]);
     assert_eq!(code, 2);
     assert!(stderr.contains("discretization.nodes"), "{stderr}");
-    assert!(stderr.contains("4 to 100"), "{stderr}");
+    assert!(stderr.contains("4 to 200"), "{stderr}");
 
     let path = write_scenario("negative.toml", |t| {
         t.replace("mass_kg = 120000.0", "mass_kg = -5.0")

@@ -236,7 +236,7 @@ fn init_then_solve_reproduces_the_paper_case() {
     assert!(text.contains("# Unit: s. Allowed: (0, 1000]."), "{text}");
     assert!(text.contains("# Unit: kg/m. Allowed: [0, 1e5]."), "{text}");
     assert!(
-        text.contains("# Allowed: an integer from 4 to 100."),
+        text.contains("# Allowed: an integer from 4 to 200."),
         "{text}"
     );
 

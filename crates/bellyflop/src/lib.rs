@@ -5,6 +5,8 @@
 //! - [`dynamics`]: the models of Eq. (1)–(3), (8), (21)–(22) and their Jacobians;
 //! - [`radau`]: LGR nodes, weights, differentiation and interpolation;
 //! - [`mesh`]: the global LGR mesh or an hp mesh of LGR intervals;
+//! - [`mesh_error`]: the relative error of a solution on each mesh interval;
+//! - [`refine`]: hp mesh refinement to a tolerance, with breaks at the switches;
 //! - [`transcription`]: the convex subproblem P4 as conic data for Clarabel;
 //! - [`conic`]: Clarabel, set up once per structure and updated in place;
 //! - [`scvx`]: the successive-convexification driver loop;
@@ -38,6 +40,7 @@ pub mod nlp;
 pub mod observer;
 pub mod propagate;
 pub mod radau;
+pub mod refine;
 pub mod replan;
 pub mod report;
 pub mod scenario;
@@ -66,11 +69,33 @@ pub use solution::{Solution, Status};
 /// 3. a `solved` answer whose controls, re-integrated, land beyond the
 ///    scenario's tolerances is `inaccurate` ([`accuracy::check`]).
 ///
+/// With `solver.refinement.tolerance` > 0 the mesh is refined until every
+/// interval's relative error is within it ([`refine::solve`]), and step 3
+/// checks the last pass's answer.
+///
 /// `solve_time_ms` is the method's own time (the certificate's alone when it
-/// answers); the re-integration of step 3 is not counted. The methods on
-/// their own ([`scvx::solve`], [`direct::solve`], and the closed loop's
-/// re-plans) skip all three steps.
+/// answers; every pass and its error estimate when refining); the
+/// re-integration of step 3 is not counted. The methods on their own
+/// ([`scvx::solve`], [`direct::solve`], and the closed loop's re-plans) skip
+/// all three steps.
 pub fn solve(
+    scenario: &Scenario,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+) -> Solution {
+    let mut sol = if settings.refinement.tolerance > 0.0 {
+        refine::solve(scenario, settings, observer)
+    } else {
+        solve_on_mesh(scenario, settings, observer)
+    };
+    if sol.status == Status::Solved {
+        accuracy::check(scenario, settings, &mut sol);
+    }
+    sol
+}
+
+/// Steps 1 and 2 of [`solve`] on the scenario's own mesh.
+pub(crate) fn solve_on_mesh(
     scenario: &Scenario,
     settings: &SolverSettings,
     observer: &mut dyn Observer,
@@ -83,18 +108,14 @@ pub fn solve(
         Method::Scvx => scvx::solve(scenario, settings, observer),
         Method::Direct => direct::solve(scenario, settings, observer),
     };
-    match sol.status {
-        Status::Infeasible => {
-            sol.status = Status::NotConverged;
-            sol.message = format!(
-                "no trajectory was found, but infeasibility is not proven ({}); try another discretization.tf_guess_s, the other method (solver.method or --method) or more nodes. The {} method stopped locally infeasible: {}",
-                feasibility::not_proven(scenario),
-                sol.method.as_str(),
-                sol.message
-            );
-        }
-        Status::Solved => accuracy::check(scenario, settings, &mut sol),
-        _ => {}
+    if sol.status == Status::Infeasible {
+        sol.status = Status::NotConverged;
+        sol.message = format!(
+            "no trajectory was found, but infeasibility is not proven ({}); try another discretization.tf_guess_s, the other method (solver.method or --method) or more nodes. The {} method stopped locally infeasible: {}",
+            feasibility::not_proven(scenario),
+            sol.method.as_str(),
+            sol.message
+        );
     }
     sol
 }

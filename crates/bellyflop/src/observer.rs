@@ -1,6 +1,7 @@
 //! What a solver reports as it iterates: one trait that both methods call
 //! (progress bars, logs, plots).
 
+use crate::refine::Pass;
 use crate::solution::{DirectIteration, IterationRecord};
 
 /// Receives each iteration as it completes (progress bars, logs, plots).
@@ -9,6 +10,9 @@ pub trait Observer {
     fn on_iteration(&mut self, record: &IterationRecord);
     /// An iteration of the direct method (ignored unless overridden).
     fn on_direct_iteration(&mut self, _record: &DirectIteration) {}
+    /// A pass of mesh refinement, solved and estimated (ignored unless
+    /// overridden).
+    fn pass(&mut self, _pass: &Pass) {}
 }
 
 /// An observer that ignores everything.

@@ -114,7 +114,7 @@ impl TerminalState {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Discretization {
-    /// Number of LGR collocation points N (4 to 100).
+    /// Number of LGR collocation points N (4 to 200; at most 100 on the global mesh, one interval).
     pub nodes: usize,
     /// Number of LGR mesh intervals M (1 to N/2; see [`crate::mesh`]). 1 is the
     /// paper's global mesh; more intervals make each subproblem far cheaper.

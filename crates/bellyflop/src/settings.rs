@@ -118,6 +118,9 @@ pub struct SolverSettings {
     /// Vz_f)‖ [m/s]. Default 2 m/s, six times the paper's case at N = 20
     /// (0.32 m/s).
     pub landing_velocity_tolerance_mps: f64,
+    /// hp mesh refinement (`[solver.refinement]`; off unless its tolerance
+    /// is set).
+    pub refinement: RefinementSettings,
 }
 
 impl Default for SolverSettings {
@@ -148,6 +151,39 @@ impl Default for SolverSettings {
             terminal_lateral_weight: 0.0,
             landing_position_tolerance_m: 5.0,
             landing_velocity_tolerance_mps: 2.0,
+            refinement: RefinementSettings::default(),
+        }
+    }
+}
+
+/// hp mesh refinement to a tolerance ([`crate::refine`]; `[solver.refinement]`
+/// in a scenario, `--mesh-tolerance` on the command line).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RefinementSettings {
+    /// The largest relative error e_k of any mesh interval that is accepted
+    /// ([`crate::mesh_error`]); 0 (the default) solves on the scenario's
+    /// mesh alone.
+    pub tolerance: f64,
+    /// Passes, the first solve included.
+    pub max_passes: usize,
+    /// Points of a new interval when one is split (n_min of the ph rule).
+    pub min_points: usize,
+    /// Most points per interval before it is split (n_max).
+    pub max_points: usize,
+    /// Most collocation points of a refined mesh; refinement stops before a
+    /// mesh with more.
+    pub max_total_points: usize,
+}
+
+impl Default for RefinementSettings {
+    fn default() -> Self {
+        RefinementSettings {
+            tolerance: 0.0,
+            max_passes: 6,
+            min_points: 4,
+            max_points: 10,
+            max_total_points: 80,
         }
     }
 }

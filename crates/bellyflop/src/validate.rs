@@ -153,9 +153,13 @@ const GIMBAL: Range = Range::open(-90.0, 90.0, "deg");
 // ---------------------------------------------------------------------------
 
 /// LGR collocation points N: at least 4 so the polynomial can represent the
-/// flip (the paper uses 20), at most 100, beyond which the dense
+/// flip (the paper uses 20), at most 200 over several intervals (a refined
+/// mesh, or a fine reference such as 20 × 8; each interval is at most
+/// [`INTERVAL_POINTS`]).
+const NODES: (usize, usize) = (4, 200);
+/// N of the global mesh (one interval): at most 100, beyond which its dense
 /// differentiation matrix is ill-conditioned and the subproblem is large.
-const NODES: (usize, usize) = (4, 100);
+const GLOBAL_NODES_MAX: usize = 100;
 /// LGR mesh intervals M (further limited to N/2).
 const INTERVALS: (usize, usize) = (1, 50);
 /// LGR points n_k of one interval of an explicit mesh: at least 2, as the
@@ -216,6 +220,14 @@ const LANDING_VELOCITY_TOLERANCE: Range = Range::closed(1e-3, 1e4, "m/s");
 /// Trust-region shrink and grow factors: strictly above 1 (else the radius
 /// does not change), at most 100.
 const FACTOR: Range = Range::open_closed(1.0, 100.0, "");
+/// Mesh refinement's tolerance on the relative interval error: 0 (off) to
+/// 0.1 (a coarser target is no refinement).
+const REFINEMENT_TOLERANCE: Range = Range::closed(0.0, 0.1, "");
+/// Refinement passes, the first solve included.
+const REFINEMENT_PASSES: (usize, usize) = (1, 20);
+/// Points of an interval that refinement makes: n_min and n_max of the ph
+/// rule (within an explicit mesh's [`INTERVAL_POINTS`]).
+const REFINEMENT_POINTS: (usize, usize) = (2, 20);
 
 /// Check every field of a scenario against its allowed range, then check that
 /// related fields agree with each other.
@@ -307,6 +319,16 @@ fn terminal(t: &TerminalState) -> Result<(), InputError> {
 fn discretization(d: &Discretization) -> Result<(), InputError> {
     count_in_range("discretization.nodes", d.nodes, NODES)?;
     count_in_range("discretization.intervals", d.intervals, INTERVALS)?;
+    if d.intervals == 1 && d.nodes > GLOBAL_NODES_MAX {
+        return Err(InputError::Inconsistent {
+            field: "discretization.nodes".into(),
+            value: d.nodes as f64,
+            reason: format!(
+                "must be at most {GLOBAL_NODES_MAX} on the global mesh (discretization.intervals = 1); up to {} over several intervals",
+                NODES.1
+            ),
+        });
+    }
     if let Some(mesh) = &d.mesh {
         mesh_layout("discretization.mesh", mesh)?;
         let (total, m) = (mesh.nodes(), mesh.intervals());
@@ -512,7 +534,43 @@ pub fn solver(s: &SolverSettings) -> Result<(), InputError> {
             s.landing_velocity_tolerance_mps,
             LANDING_VELOCITY_TOLERANCE,
         ),
+        (
+            "solver.refinement.tolerance",
+            s.refinement.tolerance,
+            REFINEMENT_TOLERANCE,
+        ),
     ])?;
+    let r = &s.refinement;
+    count_in_range(
+        "solver.refinement.max_passes",
+        r.max_passes,
+        REFINEMENT_PASSES,
+    )?;
+    count_in_range(
+        "solver.refinement.min_points",
+        r.min_points,
+        REFINEMENT_POINTS,
+    )?;
+    count_in_range(
+        "solver.refinement.max_points",
+        r.max_points,
+        REFINEMENT_POINTS,
+    )?;
+    count_in_range(
+        "solver.refinement.max_total_points",
+        r.max_total_points,
+        NODES,
+    )?;
+    if r.min_points > r.max_points {
+        return Err(InputError::Inconsistent {
+            field: "solver.refinement.max_points".into(),
+            value: r.max_points as f64,
+            reason: format!(
+                "must be at least solver.refinement.min_points = {}",
+                r.min_points
+            ),
+        });
+    }
     solver_consistency(s)
 }
 
@@ -910,7 +968,7 @@ mod tests {
 
     #[test]
     fn mesh_point_total_outside_the_node_range_is_out_of_range() {
-        for points in [&[3][..], &[60, 41]] {
+        for points in [&[3][..], &[100, 100, 2]] {
             let breaks: Vec<f64> = crate::mesh::MeshLayout::uniform(10, points.len()).breaks_tau;
             let mut s = on_mesh(&breaks, points);
             s.discretization.nodes = 20;

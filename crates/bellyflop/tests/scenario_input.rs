@@ -227,8 +227,20 @@ fn min_thrust_above_max_thrust_is_inconsistent() {
 
 #[test]
 fn node_count_outside_4_to_100_is_out_of_range() {
-    for (n, ok) in [(0, false), (3, false), (4, true), (100, true), (101, false)] {
-        let text = paper_with("nodes = 20 ", &format!("nodes = {n} "));
+    // 4 to 200 in all; the global mesh (the paper's file has one interval)
+    // at most 100, a check against discretization.intervals.
+    for (n, intervals, ok) in [
+        (0, 1, false),
+        (3, 1, false),
+        (4, 1, true),
+        (100, 1, true),
+        (200, 2, true),
+        (201, 3, false),
+    ] {
+        let text = paper_with(
+            "nodes = 20 ",
+            &format!("nodes = {n}\nintervals = {intervals} "),
+        );
         if ok {
             assert!(Case::from_toml_str(&text).is_ok(), "N = {n}");
             continue;
@@ -236,11 +248,26 @@ fn node_count_outside_4_to_100_is_out_of_range() {
         let (field, value, allowed, display) = out_of_range(&text);
         assert_eq!(field, "discretization.nodes");
         assert_eq!(value, n as f64);
-        assert_eq!(allowed, "4 to 100");
+        assert_eq!(allowed, "4 to 200");
         assert_eq!(
             display,
-            format!("discretization.nodes = {n} is out of range: allowed 4 to 100")
+            format!("discretization.nodes = {n} is out of range: allowed 4 to 200")
         );
+    }
+    let text = paper_with("nodes = 20 ", "nodes = 101 ");
+    match Case::from_toml_str(&text) {
+        Err(bellyflop::InputError::Inconsistent {
+            field,
+            value,
+            reason,
+        }) => {
+            assert_eq!((field.as_str(), value), ("discretization.nodes", 101.0));
+            assert!(
+                reason.contains("at most 100 on the global mesh"),
+                "{reason}"
+            );
+        }
+        other => panic!("N = 101 on the global mesh: {other:?}"),
     }
     // A negative count is not a usize: a TOML error at the right line.
     let text = paper_with("nodes = 20 ", "nodes = -5 ");

@@ -1,0 +1,560 @@
+//! hp mesh refinement to a tolerance (issue 16), after Patterson, Hager &
+//! Rao, "A ph mesh refinement method for optimal control", OCAM 2015, with
+//! interval breaks at the detected control switches (Agamawi, Hager & Rao
+//! 2019).
+//!
+//! Each pass solves on a mesh, estimates the relative error e_k of every
+//! interval ([`crate::mesh_error`]) and stops when max_k e_k ≤ ε. Otherwise
+//! the next mesh is built in two steps:
+//!
+//! 1. **p or h, per interval.** An interval with e_k > ε and n_k points
+//!    needs about P_k = ⌈log(e_k/ε) / log n_k⌉ more (the ph rule, §4.1:
+//!    the error of an LGR interval falls like n_k^(−p)). If n_k + P_k ≤
+//!    `max_points` the degree is raised; otherwise the interval is split
+//!    into B = max(2, ⌈(n_k + P_k)/n_min⌉) equal intervals of n_min points.
+//! 2. **Breaks at the events.** The thrust T and the gimbal rate χ are
+//!    bang-bang on most of a landing, and δ rides its limit on some: a
+//!    polynomial across a switch, or across the entry or exit of an arc on a
+//!    bound, rings or converges slowly however high its degree. Wherever T,
+//!    χ or δ changes between a bound and the interior (or the other bound)
+//!    from one collocation point to the next inside an interval, an event is
+//!    placed midway between them ([`events`]). An event in an interval next
+//!    to a break that the previous pass put at an event moves that break
+//!    onto it (the same switch, located better on the finer mesh); any other
+//!    splits its interval there. An event across a break is already where
+//!    it belongs.
+//!
+//! Each pass starts warm: the previous answer carried onto the new mesh by
+//! its state and control polynomials ([`Nlp::interpolate_from`]), at
+//! μ_0 = [`crate::direct::WARM_MU`] (SCvx solves each pass cold).
+
+use serde::Serialize;
+
+use crate::direct;
+use crate::dynamics::Model;
+use crate::mesh::{Mesh, MeshLayout};
+use crate::mesh_error::{self, IntervalError};
+use crate::nlp::Nlp;
+use crate::observer::Observer;
+use crate::scenario::Scenario;
+use crate::settings::{Method, RefinementSettings, SolverSettings};
+use crate::solution::{Solution, Status};
+
+/// One pass: the mesh, the answer's status and cost, and the error estimate.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Pass {
+    /// 1 for the first solve.
+    pub pass: usize,
+    pub mesh: MeshLayout,
+    /// N = Σ n_k.
+    pub nodes: usize,
+    pub status: Status,
+    pub iterations: usize,
+    pub solve_time_ms: f64,
+    pub final_mass_kg: f64,
+    /// The events detected on this pass's answer \[s\]: where T, χ or δ
+    /// reaches or leaves a bound ([`events`]).
+    pub events_s: Vec<f64>,
+    /// e_k of each interval, and their maximum.
+    pub intervals: Vec<IntervalError>,
+    pub max_relative_error: f64,
+}
+
+/// Why the refinement stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stop {
+    /// max_k e_k ≤ the tolerance.
+    ToleranceMet,
+    /// The next mesh would have more than `max_total_points`.
+    PointLimit,
+    /// `max_passes` passes were solved.
+    PassLimit,
+    /// A pass's answer was not `solved`; the last solved one is returned
+    /// (or the first pass's, whatever its status).
+    SolveFailed,
+    /// The error could not be estimated (the integration failed).
+    EstimateFailed,
+}
+
+/// The record of a refinement, carried by its [`Solution`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Refinement {
+    pub tolerance: f64,
+    pub stop: Stop,
+    pub passes: Vec<Pass>,
+    /// The time of every pass, estimates and mesh building included \[ms\].
+    pub total_time_ms: f64,
+}
+
+/// Solve `scenario` and refine its mesh until every interval's relative
+/// error is at most `settings.refinement.tolerance` (which must be > 0).
+/// Returns the last accepted pass's answer, with its [`Refinement`] record;
+/// its iterations and time count every pass and estimate. Like
+/// [`crate::solve`]'s steps 1 and 2, it does not re-integrate the landing
+/// (the caller's [`crate::accuracy::check`] does).
+pub fn solve(
+    scenario: &Scenario,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+) -> Solution {
+    let start = std::time::Instant::now();
+    let rs = &settings.refinement;
+    let model = Model::new(&scenario.vehicle, &scenario.environment);
+    let mut current = scenario.clone();
+    let mut sol = crate::solve_on_mesh(&current, settings, observer);
+    let mut passes = Vec::new();
+    let mut iterations = 0;
+    let mut event_breaks: Vec<Event> = Vec::new();
+    let stop = loop {
+        iterations += sol.iterations;
+        if sol.status != Status::Solved {
+            break Stop::SolveFailed;
+        }
+        let mesh = sol.mesh();
+        let errors = match mesh_error::estimate(&current, &sol) {
+            Ok(e) => e,
+            Err(_) => break Stop::EstimateFailed,
+        };
+        let events = events(&sol, &mesh, &model);
+        let max_error = errors.iter().map(|e| e.relative_error).fold(0.0, f64::max);
+        passes.push(Pass {
+            pass: passes.len() + 1,
+            mesh: sol.mesh.clone(),
+            nodes: sol.nodes,
+            status: sol.status,
+            iterations: sol.iterations,
+            solve_time_ms: sol.solve_time_ms,
+            final_mass_kg: sol.final_mass_kg,
+            events_s: events
+                .iter()
+                .map(|e| 0.5 * (e.tau + 1.0) * sol.tf_s)
+                .collect(),
+            intervals: errors.clone(),
+            max_relative_error: max_error,
+        });
+        observer.pass(passes.last().expect("just pushed"));
+        if max_error <= rs.tolerance {
+            break Stop::ToleranceMet;
+        }
+        if passes.len() >= rs.max_passes {
+            break Stop::PassLimit;
+        }
+        let errs: Vec<f64> = errors.iter().map(|e| e.relative_error).collect();
+        let (next, placed) = next_layout(&mesh, &errs, &events, &event_breaks, rs);
+        if next.nodes() > rs.max_total_points {
+            break Stop::PointLimit;
+        }
+        let mut refined = scenario.clone();
+        refined.discretization.nodes = next.nodes();
+        refined.discretization.intervals = next.intervals();
+        refined.discretization.mesh = Some(next);
+        let answer = solve_warm(&sol, &refined, settings, observer);
+        if answer.status != Status::Solved {
+            iterations += answer.iterations;
+            break Stop::SolveFailed;
+        }
+        current = refined;
+        sol = answer;
+        event_breaks = placed;
+    };
+    sol.iterations = iterations;
+    sol.refinement = Some(Refinement {
+        tolerance: rs.tolerance,
+        stop,
+        passes,
+        total_time_ms: start.elapsed().as_secs_f64() * 1e3,
+    });
+    sol.solve_time_ms = start.elapsed().as_secs_f64() * 1e3;
+    sol
+}
+
+/// One pass on `to`'s mesh, warm from `prev` (an answer on another mesh)
+/// with the direct method, cold with SCvx.
+fn solve_warm(
+    prev: &Solution,
+    to: &Scenario,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+) -> Solution {
+    match settings.method {
+        Method::Scvx => crate::solve_on_mesh(to, settings, observer),
+        Method::Direct => {
+            let nlp = Nlp::new(to, settings);
+            let w0 = nlp.interpolate_from(prev);
+            let mut warm = settings.clone();
+            warm.direct.mu_init = direct::WARM_MU;
+            direct::solve_from(to, &warm, &nlp, &w0, None, observer)
+        }
+    }
+}
+
+/// A place where the mesh wants a break: a switch of T or χ between its
+/// bounds, or the entry or exit of an arc on a bound.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Event {
+    pub tau: f64,
+    /// For a switch: the signal (0: T, 1: χ) and whether it is on its upper
+    /// bound after the switch.
+    pub switch: Option<(usize, bool)>,
+}
+
+/// Where a signal sits against its bounds at one collocation point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Activity {
+    Lower,
+    Interior,
+    Upper,
+}
+
+/// A signal within this fraction of its range of a bound is on that bound.
+const ON_BOUND: f64 = 1e-2;
+
+fn activity(v: f64, lo: f64, hi: f64) -> Activity {
+    let tol = ON_BOUND * (hi - lo);
+    if v <= lo + tol {
+        Activity::Lower
+    } else if v >= hi - tol {
+        Activity::Upper
+    } else {
+        Activity::Interior
+    }
+}
+
+/// The events of a solution, in τ:
+///
+/// - **switches** of T or χ between its bounds: a run of points on one
+///   bound, at most one point off the bounds, then a run on the other. The
+///   discrete answer places a switch inside the quadrature cell of that
+///   point off the bounds, by its value: over the cell (interval k's cells
+///   partition it in order, cell i of width w_i, the point's quadrature
+///   weight) the impulse of the value equals that of the first bound for a
+///   fraction (v − post)/(pre − post) of the cell and the second after it,
+///   so the switch is at cell_lo + w_i·(v − post)/(pre − post); with no
+///   point between the runs, at the boundary of their cells. A switch on a
+///   break (within 1e-9 in τ) is where it belongs;
+/// - the **ends of arcs**: elsewhere, where T, χ or δ changes between a
+///   bound and the interior from one point to the next inside an interval,
+///   placed midway.
+pub fn events(sol: &Solution, mesh: &Mesh, model: &Model) -> Vec<Event> {
+    let signals: [(&[f64], f64, f64); 3] = [
+        (&sol.thrust_n, model.min_thrust_n, model.max_thrust_n),
+        (
+            &sol.gimbal_rate_radps,
+            -model.max_gimbal_rate_radps,
+            model.max_gimbal_rate_radps,
+        ),
+        (&sol.delta_rad, -model.max_gimbal_rad, model.max_gimbal_rad),
+    ];
+    let n = mesh.n;
+    let mut starts = vec![false; n + 1];
+    let mut cell_lo = vec![0.0; n];
+    for iv in &mesh.intervals {
+        starts[iv.start] = true;
+        let mut at = iv.tau_lo;
+        let cells = iv.start..iv.start + iv.points;
+        for (lo, w) in cell_lo[cells.clone()].iter_mut().zip(&mesh.weights[cells]) {
+            *lo = at;
+            at += w;
+        }
+    }
+    starts[n] = true;
+    let on_break = |tau: f64| {
+        mesh.intervals
+            .iter()
+            .any(|iv| (iv.tau_lo - tau).abs() < 1e-9)
+    };
+    let mut out: Vec<Event> = Vec::new();
+    // Pairs (i, i + 1) that a switch explains.
+    let mut covered = vec![false; n];
+    for (c, &(v, lo, hi)) in signals.iter().take(2).enumerate() {
+        let act: Vec<Activity> = (0..n).map(|i| activity(v[i], lo, hi)).collect();
+        for i in 0..n.saturating_sub(1) {
+            let pre = act[i];
+            if pre == Activity::Interior {
+                continue;
+            }
+            let post = if pre == Activity::Lower {
+                Activity::Upper
+            } else {
+                Activity::Lower
+            };
+            let (pre_v, post_v) = if pre == Activity::Lower {
+                (lo, hi)
+            } else {
+                (hi, lo)
+            };
+            let tau = if act[i + 1] == post {
+                cell_lo[i] + mesh.weights[i]
+            } else if act[i + 1] == Activity::Interior && i + 2 < n && act[i + 2] == post {
+                let m = i + 1;
+                cell_lo[m] + mesh.weights[m] * (v[m] - post_v) / (pre_v - post_v)
+            } else {
+                continue;
+            };
+            let j = if act[i + 1] == post { i + 1 } else { i + 2 };
+            // The pairs of the switch, and one on either side: δ touching
+            // its limit where χ switches is the same event.
+            covered[i.saturating_sub(1)..(j + 1).min(n)]
+                .iter_mut()
+                .for_each(|x| *x = true);
+            if !on_break(tau) {
+                out.push(Event {
+                    tau,
+                    switch: Some((c, post == Activity::Upper)),
+                });
+            }
+        }
+    }
+    for i in 0..n.saturating_sub(1) {
+        if covered[i] || starts[i + 1] {
+            continue;
+        }
+        let changes = signals
+            .iter()
+            .any(|&(v, lo, hi)| activity(v[i], lo, hi) != activity(v[i + 1], lo, hi));
+        if changes {
+            out.push(Event {
+                tau: 0.5 * (mesh.nodes[i] + mesh.nodes[i + 1]),
+                switch: None,
+            });
+        }
+    }
+    out.sort_by(|a, b| a.tau.total_cmp(&b.tau));
+    out
+}
+
+/// The next mesh: the ph rule on each interval, then breaks at the events.
+///
+/// `event_breaks` are the breaks that the previous pass put at events: an
+/// event in an interval next to one of them moves it (the event is the same
+/// switch, located better on a finer mesh); any other event splits its
+/// interval. Returns the layout and its event breaks.
+pub fn next_layout(
+    mesh: &Mesh,
+    errors: &[f64],
+    events: &[Event],
+    event_breaks: &[Event],
+    rs: &RefinementSettings,
+) -> (MeshLayout, Vec<Event>) {
+    // (τ_lo, τ_hi, points) of each interval of the new mesh.
+    let mut segs: Vec<(f64, f64, usize)> = Vec::new();
+    for (iv, &e) in mesh.intervals.iter().zip(errors) {
+        let n = iv.points;
+        if e <= rs.tolerance {
+            segs.push((iv.tau_lo, iv.tau_hi, n));
+            continue;
+        }
+        let raise = ((e / rs.tolerance).ln() / (n.max(2) as f64).ln())
+            .ceil()
+            .max(1.0) as usize;
+        let want = n + raise;
+        if want <= rs.max_points {
+            segs.push((iv.tau_lo, iv.tau_hi, want));
+        } else {
+            let b = want.div_ceil(rs.min_points).max(2);
+            let h = (iv.tau_hi - iv.tau_lo) / b as f64;
+            for j in 0..b {
+                let hi = if j + 1 == b {
+                    iv.tau_hi
+                } else {
+                    iv.tau_lo + h * (j + 1) as f64
+                };
+                segs.push((iv.tau_lo + h * j as f64, hi, rs.min_points));
+            }
+        }
+    }
+    let mut moved = vec![false; event_breaks.len()];
+    let mut placed = Vec::new();
+    for &event in events {
+        let tau = event.tau;
+        let Some(j) = segs.iter().position(|s| tau > s.0 && tau < s.1) else {
+            continue;
+        };
+        let (lo, hi, n) = segs[j];
+        // An event break of the same kind (the same signal's switch, or an
+        // arc's end) at this interval's either end, not yet moved.
+        let same = |e: &Event| match (e.switch, event.switch) {
+            (Some((a, _)), Some((b, _))) => a == b,
+            (None, None) => true,
+            _ => false,
+        };
+        let near = |b: f64| {
+            event_breaks
+                .iter()
+                .enumerate()
+                .find(|&(k, e)| !moved[k] && same(e) && (e.tau - b).abs() < 1e-12)
+                .map(|(k, _)| k)
+        };
+        if let Some(k) = (j > 0).then(|| near(lo)).flatten() {
+            moved[k] = true;
+            segs[j - 1].1 = tau;
+            segs[j].0 = tau;
+        } else if let Some(k) = (j + 1 < segs.len()).then(|| near(hi)).flatten() {
+            moved[k] = true;
+            segs[j].1 = tau;
+            segs[j + 1].0 = tau;
+        } else {
+            let width = hi - lo;
+            let left = ((n as f64 * (tau - lo) / width).round() as usize).max(rs.min_points);
+            let right = ((n as f64 * (hi - tau) / width).round() as usize).max(rs.min_points);
+            segs.splice(j..=j, [(lo, tau, left), (tau, hi, right)]);
+        }
+        placed.push(event);
+    }
+    // Event breaks that no event claimed stay where they are.
+    placed.extend(
+        event_breaks
+            .iter()
+            .zip(&moved)
+            .filter(|&(_, &m)| !m)
+            .map(|(&b, _)| b),
+    );
+    let mut breaks_tau: Vec<f64> = segs.iter().map(|s| s.0).collect();
+    breaks_tau.push(1.0);
+    breaks_tau[0] = -1.0;
+    (
+        MeshLayout {
+            breaks_tau,
+            points: segs.iter().map(|s| s.2).collect(),
+        },
+        placed,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings(tolerance: f64) -> RefinementSettings {
+        RefinementSettings {
+            tolerance,
+            ..RefinementSettings::default()
+        }
+    }
+
+    /// The ph rule: an interval within the tolerance is kept, one a little
+    /// above it gains ⌈log(e/ε)/log n⌉ points, and one far above it, past
+    /// `max_points`, is split into ⌈(n + P)/n_min⌉ intervals of n_min.
+    #[test]
+    fn ph_rule_raises_the_degree_or_splits() {
+        let mesh = Mesh::new(&[-1.0, -0.5, 0.0, 1.0], &[5, 5, 8]);
+        let rs = settings(1e-6);
+        // 5 points at e = 1e-4: P = ⌈ln 100 / ln 5⌉ = 3 → 8 points.
+        // 8 points at e = 1e-1: P = ⌈ln 1e5 / ln 8⌉ = 6 → 14 > 10: split
+        // into ⌈14/4⌉ = 4 intervals of 4 points.
+        let (next, _) = next_layout(&mesh, &[1e-7, 1e-4, 1e-1], &[], &[], &rs);
+        assert_eq!(next.points, vec![5, 8, 4, 4, 4, 4]);
+        let want = [-1.0, -0.5, 0.0, 0.25, 0.5, 0.75, 1.0];
+        assert_eq!(next.breaks_tau.len(), want.len());
+        for (b, w) in next.breaks_tau.iter().zip(want) {
+            assert!((b - w).abs() < 1e-15, "{:?}", next.breaks_tau);
+        }
+    }
+
+    fn switch(tau: f64) -> Event {
+        Event {
+            tau,
+            switch: Some((0, true)),
+        }
+    }
+
+    /// An event splits its interval, the points shared in proportion; an
+    /// event next to a break placed at an event of its kind moves that
+    /// break onto it; ordinary breaks, and breaks of another kind, stay.
+    #[test]
+    fn events_split_intervals_or_move_their_breaks() {
+        let mesh = Mesh::new(&[-1.0, 0.0, 1.0], &[8, 8]);
+        let rs = settings(1e-6);
+        let (next, placed) = next_layout(&mesh, &[0.0, 0.0], &[switch(-0.5)], &[], &rs);
+        assert_eq!(next.breaks_tau, vec![-1.0, -0.5, 0.0, 1.0]);
+        assert_eq!(next.points, vec![4, 4, 8]);
+        assert_eq!(placed, vec![switch(-0.5)]);
+        // τ = 0 is a switch break of the previous pass: it moves.
+        let (next, placed) = next_layout(&mesh, &[0.0, 0.0], &[switch(0.6)], &[switch(0.0)], &rs);
+        assert_eq!(next.breaks_tau, vec![-1.0, 0.6, 1.0]);
+        assert_eq!(next.points, vec![8, 8]);
+        assert_eq!(placed, vec![switch(0.6)]);
+        // An ordinary break stays; so does a break of another kind, and an
+        // event break that no event claims.
+        let (next, _) = next_layout(&mesh, &[0.0, 0.0], &[switch(0.6)], &[], &rs);
+        assert_eq!(next.breaks_tau, vec![-1.0, 0.0, 0.6, 1.0]);
+        assert_eq!(next.points, vec![8, 5, 4]);
+        let arc = Event {
+            tau: 0.0,
+            switch: None,
+        };
+        let (next, placed) = next_layout(&mesh, &[0.0, 0.0], &[switch(0.6)], &[arc], &rs);
+        assert_eq!(next.breaks_tau, vec![-1.0, 0.0, 0.6, 1.0]);
+        assert_eq!(placed, vec![switch(0.6), arc]);
+    }
+
+    /// A switch inside a quadrature cell is placed by the impulse of the
+    /// value there: T_min on points 0–1, a value a quarter of the way up on
+    /// point 2, T_max after: the switch is 3/4 into point 2's cell.
+    #[test]
+    fn a_switch_is_placed_by_the_impulse_of_the_point_between() {
+        let s = crate::Scenario::paper();
+        let model = Model::new(&s.vehicle, &s.environment);
+        let mesh = Mesh::global(6);
+        let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
+        let mut sol =
+            crate::direct::solve(&s, &SolverSettings::default(), &mut crate::observer::Silent);
+        sol.thrust_n = vec![lo, lo, lo + 0.25 * (hi - lo), hi, hi, hi, hi];
+        sol.gimbal_rate_radps = vec![0.0; 7];
+        sol.delta_rad = vec![0.0; 7];
+        let ev = events(&sol, &Mesh::global(6), &model);
+        let cell_lo = -1.0 + mesh.weights[0] + mesh.weights[1];
+        let want = cell_lo + 0.75 * mesh.weights[2];
+        assert_eq!(ev.len(), 1, "{ev:?}");
+        assert!(
+            (ev[0].tau - want).abs() < 1e-14,
+            "{} against {want}",
+            ev[0].tau
+        );
+        assert_eq!(ev[0].switch, Some((0, true)));
+    }
+
+    /// Issue 16: refined on the paper's case, a break lands within one node
+    /// spacing of the thrust switch at 6.0 s (the paper's Fig. 6), the mesh
+    /// error falls pass by pass (by more than ten in three passes), and the
+    /// re-integrated landing is within 0.1 m and 0.05 m/s.
+    #[test]
+    fn refinement_breaks_the_mesh_at_the_paper_thrust_switch() {
+        let case = crate::Case::paper();
+        let mut sv = case.solver.clone();
+        sv.refinement.tolerance = 1e-6;
+        sv.refinement.max_passes = 3;
+        let sol = crate::solve(&case.scenario, &sv, &mut crate::observer::Silent);
+        assert_eq!(sol.status, Status::Solved, "{}", sol.message);
+        let r = sol.refinement.as_ref().expect("refined");
+        assert_eq!(r.passes.len(), 3);
+        let errors: Vec<f64> = r.passes.iter().map(|p| p.max_relative_error).collect();
+        // Measured: 2.3e-3, 6.7e-4, 7.7e-5.
+        assert!(
+            errors[1] < errors[0] && errors[2] < errors[1] && errors[2] < errors[0] / 10.0,
+            "{errors:?}"
+        );
+        let t = &sol.t_s;
+        let b = &sol.mesh.breaks_tau;
+        let breaks: Vec<f64> = b[1..b.len() - 1]
+            .iter()
+            .map(|tau| 0.5 * (tau + 1.0) * sol.tf_s)
+            .collect();
+        let k = t.partition_point(|&x| x < 6.0);
+        let spacing = t[k] - t[k - 1];
+        assert!(
+            breaks.iter().any(|&x| (x - 6.0).abs() <= spacing),
+            "no break within {spacing:.3} s of 6.0 s: {breaks:?}"
+        );
+        let p = crate::propagate::propagate(&case.scenario, &sol, &Default::default())
+            .expect("propagates");
+        let e = p.landing_error;
+        assert!(
+            e.position_m <= 0.1 && e.velocity_mps <= 0.05,
+            "lands {:.3} m, {:.3} m/s",
+            e.position_m,
+            e.velocity_mps
+        );
+    }
+}
