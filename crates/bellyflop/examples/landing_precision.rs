@@ -116,6 +116,8 @@ fn main() {
                     sol.pitch_rate_radps[0],
                     sol.mass_kg[0],
                 ],
+                interval_points: &[],
+                collocation: false,
             };
             let opts = Options {
                 interpolation: Interpolation::Linear,

@@ -622,6 +622,27 @@ pub struct Options {
     pub interpolation: Interpolation,
     pub nozzle: NozzleModel,
     pub integrator: Dop853,
+    pub controls: ControlSource,
+}
+
+/// What the controls between the nodes are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ControlSource {
+    /// `collocation` for a refined solution (its breaks are at the control
+    /// switches), `nodes` otherwise. The default.
+    #[default]
+    Auto,
+    /// [`Options::interpolation`] through the nodes (per interval on an hp
+    /// mesh, see [`Controls::interval_points`]).
+    Nodes,
+    /// The collocation's own polynomials, per interval: T and χ of degree
+    /// n_k − 1 through its collocation points, δ of degree n_k through its
+    /// nodes, extrapolated to the interval's end and kept within their
+    /// bounds. On a refined mesh the controls are smooth inside each
+    /// interval, and these converge as the collocation does, where PCHIP's
+    /// cubics do not (BENCHMARKS.md, "Mesh refinement").
+    Collocation,
 }
 
 /// The miss at t_f against the scenario's terminal state.
@@ -680,7 +701,22 @@ pub struct Controls<'a> {
     pub gimbal_rate_radps: &'a [f64],
     /// (x, z, Vx, Vz, θ, w, m) at t_0.
     pub initial: [f64; 7],
+    /// The collocation points n_k of each mesh interval (Σ n_k = N); empty
+    /// or one entry: one interpolant through every node. With several, T and
+    /// χ are interpolated per interval, through its own collocation points
+    /// and held from the last one to the interval's end: a break at a thrust
+    /// switch is a discontinuity of the control, which an interpolant across
+    /// the break would smear over the gap between the last point and the
+    /// break (δ, a state, stays one interpolant through all the nodes).
+    pub interval_points: &'a [usize],
+    /// Interpolate by the collocation's polynomials per interval
+    /// ([`ControlSource::Collocation`]) instead of [`Options::interpolation`].
+    pub collocation: bool,
 }
+
+/// One interval's collocation polynomials: its point times and their
+/// barycentric weights, then its node times and theirs.
+type PiecePolynomials = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
 
 /// A propagated trajectory: times, states and nozzle angles at the accepted
 /// steps, and the integrator's work.
@@ -712,10 +748,68 @@ pub fn integrate_controls(
         ));
     }
     let kind = options.interpolation;
-    let thrust = Interpolant::new(kind, c.t_s, c.thrust_n);
     let delta = Interpolant::new(kind, c.t_s, c.delta_rad);
-    let chi = Interpolant::new(kind, c.t_s, c.gimbal_rate_radps);
     let nozzle = options.nozzle;
+    // Per interval (first node, node count + 1 with its end): T and χ, each
+    // held from the interval's last point to its end.
+    let pieces: Vec<(usize, usize)> = if c.interval_points.len() > 1 {
+        if c.interval_points.iter().sum::<usize>() + 1 != m || c.interval_points.contains(&0) {
+            return Err(IntegrationError::BadSolution(format!(
+                "the intervals' points must be positive and add up to the {} nodes less one",
+                m
+            )));
+        }
+        c.interval_points
+            .iter()
+            .scan(0, |start, &n| {
+                let piece = (*start, n);
+                *start += n;
+                Some(piece)
+            })
+            .collect()
+    } else {
+        vec![(0, m - 1)]
+    };
+    let held = |values: &[f64], start: usize, n: usize| -> Vec<f64> {
+        let mut v = values[start..=start + n].to_vec();
+        if pieces.len() > 1 {
+            v[n] = v[n - 1];
+        }
+        v
+    };
+    let controls: Vec<(Interpolant, Interpolant)> = pieces
+        .iter()
+        .map(|&(start, n)| {
+            let t = &c.t_s[start..=start + n];
+            (
+                Interpolant::new(kind, t, &held(c.thrust_n, start, n)),
+                Interpolant::new(kind, t, &held(c.gimbal_rate_radps, start, n)),
+            )
+        })
+        .collect();
+    // The collocation's polynomials per piece: (point times, their
+    // barycentric weights), and the same over the piece's nodes for δ.
+    let polys: Vec<PiecePolynomials> = if c.collocation {
+        pieces
+            .iter()
+            .map(|&(start, n)| {
+                let tp = c.t_s[start..start + n].to_vec();
+                let tn = c.t_s[start..=start + n].to_vec();
+                let (bp, bn) = (
+                    crate::radau::barycentric_weights(&tp),
+                    crate::radau::barycentric_weights(&tn),
+                );
+                (tp, bp, tn, bn)
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let piece_of: Vec<usize> = pieces
+        .iter()
+        .enumerate()
+        .flat_map(|(j, &(_, n))| std::iter::repeat_n(j, n))
+        .collect();
 
     // The 7 physical states, plus δ for the nozzle-rate model.
     let p0 = c.initial;
@@ -734,12 +828,38 @@ pub fn integrate_controls(
     let mut delta_out = vec![y[7]];
     let mut stats = Stats::default();
     let mut h = 0.0;
-    for k in 0..m - 1 {
+    for (k, &j) in piece_of.iter().enumerate() {
+        let (thrust, chi) = &controls[j];
+        let local = k - pieces[j].0;
+        let (start, np) = pieces[j];
+        let poly = polys.get(j);
+        let thrust_at = |t: f64| match poly {
+            Some((tp, bp, _, _)) => {
+                crate::radau::interpolate(tp, bp, &c.thrust_n[start..start + np], t)
+                    .clamp(model.min_thrust_n, model.max_thrust_n)
+            }
+            None => thrust.eval_on(local, t),
+        };
+        let chi_at = |t: f64| match poly {
+            Some((tp, bp, _, _)) => {
+                let r = model.max_gimbal_rate_radps;
+                crate::radau::interpolate(tp, bp, &c.gimbal_rate_radps[start..start + np], t)
+                    .clamp(-r, r)
+            }
+            None => chi.eval_on(local, t),
+        };
+        let delta_at = |t: f64| match poly {
+            Some((_, _, tn, bn)) => {
+                let r = model.max_gimbal_rad;
+                crate::radau::interpolate(tn, bn, &c.delta_rad[start..=start + np], t).clamp(-r, r)
+            }
+            None => delta.eval_on(k, t),
+        };
         let rhs = |t: f64, y: &[f64; 8]| -> [f64; 8] {
-            let thrust_n = thrust.eval_on(k, t);
+            let thrust_n = thrust_at(t);
             let (delta_rad, ddelta) = match nozzle {
-                NozzleModel::Angle => (delta.eval_on(k, t), 0.0),
-                NozzleModel::Rate => (y[7], chi.eval_on(k, t)),
+                NozzleModel::Angle => (delta_at(t), 0.0),
+                NozzleModel::Rate => (y[7], chi_at(t)),
             };
             let f = dynamics::rhs_physical(model, &physical(y), thrust_n, delta_rad);
             [f[0], f[1], f[2], f[3], f[4], f[5], f[6], ddelta]
@@ -755,7 +875,7 @@ pub fn integrate_controls(
                 t_out.push(t);
                 states.push(physical(y));
                 delta_out.push(match nozzle {
-                    NozzleModel::Angle => delta.eval_on(k, t),
+                    NozzleModel::Angle => delta_at(t),
                     NozzleModel::Rate => y[7],
                 });
             },
@@ -789,13 +909,25 @@ pub fn propagate(
         delta_rad: &s.delta_rad,
         gimbal_rate_radps: &s.gimbal_rate_radps,
         initial: std::array::from_fn(|c| states0[c][0]),
+        interval_points: &s.mesh.points,
+        collocation: match options.controls {
+            ControlSource::Auto => s.refinement.is_some(),
+            ControlSource::Nodes => false,
+            ControlSource::Collocation => true,
+        },
     };
     let model = Model::new(&scenario.vehicle, &scenario.environment);
     let (t_s, states, delta_rad, stats) = integrate_controls(&model, &controls, options)?;
     let end = *states.last().expect("at least the initial state");
     let landing_error = landing_error(scenario, &end);
+    let mut used = *options;
+    used.controls = if controls.collocation {
+        ControlSource::Collocation
+    } else {
+        ControlSource::Nodes
+    };
     Ok(Propagation {
-        options: *options,
+        options: used,
         t_s,
         states,
         delta_rad,
@@ -1003,6 +1135,8 @@ mod tests {
             delta_rad: &zeros,
             gimbal_rate_radps: &zeros,
             initial: [0.0, z0, 0.0, vz0, 0.0, 0.0, m0],
+            interval_points: &[],
+            collocation: false,
         };
         for interpolation in [Interpolation::Linear, Interpolation::Pchip] {
             for nozzle in [NozzleModel::Angle, NozzleModel::Rate] {

@@ -43,6 +43,7 @@ pub fn propagation_json(p: &Result<Propagation, IntegrationError>) -> Value {
                 "rtol": p.options.integrator.rtol,
                 "atol": p.options.integrator.atol,
                 "interpolation": p.options.interpolation,
+                "controls": p.options.controls,
                 "nozzle": p.options.nozzle,
                 "terminal_mass_kg": p.terminal_mass_kg,
                 "mass_error_kg": p.mass_error_kg,
