@@ -31,7 +31,7 @@ from envelope import BIN, ROOT, scenario_text, states  # noqa: E402
 
 
 def solve(path, args):
-    out = subprocess.run([str(BIN), "solve", str(path), "--json", *args],
+    out = subprocess.run([str(BIN), "solve", "--scenario", str(path), "--json", *args],
                          capture_output=True, text=True)
     try:
         return json.loads(out.stdout)

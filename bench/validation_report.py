@@ -30,6 +30,8 @@ PAPER_SCVX = {15: (1.1597, 0.29861), 20: (0.77127, 0.30135), 30: (0.7097, 0.2368
 PAPER_GPOPS = {15: (1.1636, 0.39594), 20: (0.62173, 0.33001), 30: (0.42617, 0.1531)}
 # Table 2 (N = 40): GPOPS-II landing precision for P1 and P2.
 PAPER_TABLE2 = {40: {"P1": (2.8273, 0.42003), "P2": (0.42707, 0.099739)}}
+# Table 3: GPOPS-II's t_f and final mass (N = 20).
+PAPER_GPOPS_TABLE3 = {"tf_s": 11.5666, "final_mass_kg": 114580.7}
 
 MASS_TOL_PCT = 0.05
 TF_TOL_PCT = 1.0
@@ -117,6 +119,96 @@ def run_reference(python, n, problem, scenario, repeat):
         "time_ms": need(r, "solve_time_ms", what),
         "iterations": need(r, "ipopt_iterations", what),
     }
+
+
+def run_refined(binary, scenario, tolerance, repeat, python):
+    """Ours refined to `tolerance`, then IPOPT on exactly the mesh it reached
+    (`--layout-json`), P2 with the ground bound as ours."""
+    cmd = [binary, "solve", "--json", "--mesh-tolerance", "%g" % tolerance, "--repeat", str(repeat)]
+    if scenario:
+        cmd += ["--scenario", scenario]
+    r = run(cmd)
+    if r.get("status") != "solved":
+        raise RunFailed("bellyflop refined: status %r, message %r" % (r.get("status"), r.get("message")))
+    le = need(r, "landing_error", "bellyflop refined")
+    ref = need(r, "refinement", "bellyflop refined")
+    ours = {
+        "tf_s": need(r, "tf_s", "bellyflop refined"),
+        "final_mass_kg": need(r, "final_mass_kg", "bellyflop refined"),
+        "pos_m": need(le, "position_m", "bellyflop refined landing_error"),
+        "vel_mps": need(le, "velocity_mps", "bellyflop refined landing_error"),
+        "time_ms": need(r, "solve_time_ms", "bellyflop refined"),
+        "iterations": need(r, "iterations", "bellyflop refined"),
+        "nodes": need(r, "nodes", "bellyflop refined"),
+        "layout": need(r, "mesh_layout", "bellyflop refined"),
+        "passes": need(ref, "passes", "bellyflop refinement"),
+        "stop": need(ref, "stop", "bellyflop refinement"),
+        "controls": (r.get("propagation") or {}).get("controls"),
+    }
+    import tempfile
+    with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as fh:
+        json.dump(r, fh)
+        layout_path = fh.name
+    try:
+        rcmd = [python, "bench/reference/nlp_reference.py", "--scenario", scenario, "--layout-json", layout_path,
+                "--problem", "P2", "--ground", "--repeat", str(repeat), "--json"]
+        x = run(rcmd)
+    finally:
+        os.unlink(layout_path)
+    what = "reference P2 on the refined mesh"
+    if not x.get("success") or x.get("status") != "Solve_Succeeded":
+        raise RunFailed("%s: IPOPT status %r" % (what, x.get("status")))
+    xle = need(x, "landing_error", what)
+    reference = {
+        "tf_s": need(x, "tf_s", what),
+        "final_mass_kg": need(x, "final_mass_kg", what),
+        "pos_m": need(xle, "position_m", what),
+        "vel_mps": need(xle, "velocity_mps", what),
+        "time_ms": need(x, "solve_time_ms", what),
+        "iterations": need(x, "ipopt_iterations", what),
+    }
+    return ours, reference, cmd
+
+
+def refined_section(ours, reference, cmd, tolerance):
+    """Issue 16: the refined mesh against IPOPT on it and GPOPS-II's figures."""
+    L = ["## Refined mesh (issue 16)", ""]
+    L.append("Ours: `%s`; the reference: the same P2 with the ground bound, on the mesh ours refined to "
+             "(`nlp_reference.py --layout-json`). GPOPS-II: the paper's Table 3 (t_f, m_f; its mesh is "
+             "not published) and Tables 4–5 (landing precision at N = 20) and Table 2 (P2 at N = 40)."
+             % " ".join([os.path.relpath(cmd[0], ROOT)] + cmd[1:]))
+    L.append("")
+    lay = ours["layout"]
+    L.append("Refined: %d passes (%s), N = %d over %d intervals (%s points), breaks at t = %s s."
+             % (len(ours["passes"]), ours["stop"], ours["nodes"], len(lay["points"]),
+                "+".join(str(p) for p in lay["points"]),
+                ", ".join("%.3f" % (0.5 * (b + 1.0) * ours["tf_s"]) for b in lay["breaks_tau"][1:-1])))
+    L.append("")
+    L.append("| pass | N | intervals | iterations | time [ms] | m_f [kg] | largest interval error |")
+    L.append("|---:|---:|---:|---:|---:|---:|---:|")
+    for p in ours["passes"]:
+        L.append("| %d | %d | %d | %d | %.1f | %.2f | %.1e |" % (
+            p["pass"], p["nodes"], len(p["mesh"]["points"]), p["iterations"], p["solve_time_ms"],
+            p["final_mass_kg"], p["max_relative_error"]))
+    L.append("")
+    L.append("| | t_f [s] | m_f [kg] | landing position [m] | landing velocity [m/s] | iterations | time [ms] |")
+    L.append("|---|---:|---:|---:|---:|---:|---:|")
+    L.append("| bellyflop, refined to %g | %.4f | %.1f | %.4g | %.4g | %d | %.1f |" % (
+        tolerance, ours["tf_s"], ours["final_mass_kg"], ours["pos_m"], ours["vel_mps"], ours["iterations"],
+        ours["time_ms"]))
+    L.append("| IPOPT on the same mesh | %.4f | %.1f | %.4g | %.4g | %d | %.1f |" % (
+        reference["tf_s"], reference["final_mass_kg"], reference["pos_m"], reference["vel_mps"],
+        reference["iterations"], reference["time_ms"]))
+    L.append("| GPOPS-II, paper (N = 20) | %.4f | %.1f | %.5g | %.5g | — | — |" % (
+        PAPER_GPOPS_TABLE3["tf_s"], PAPER_GPOPS_TABLE3["final_mass_kg"], PAPER_GPOPS[20][0], PAPER_GPOPS[20][1]))
+    L.append("| GPOPS-II, paper (P2, N = 40) | — | — | %.5g | %.5g | — | — |" % PAPER_TABLE2[40]["P2"])
+    L.append("")
+    L.append("Ours re-integrates its refined controls with `%s` (the collocation's own polynomials, interval by "
+             "interval); the reference re-integrates its own answer with linear interpolation, so its landing "
+             "columns measure that interpolation as much as the solution. Our time counts every pass and its "
+             "error estimate; the reference's is one solve on the final mesh." % ours["controls"])
+    L.append("")
+    return L
 
 
 def machine():
@@ -228,6 +320,8 @@ def main():
     ap.add_argument("--bellyflop", default="target/release/bellyflop", help="bellyflop binary")
     ap.add_argument("--out", default="docs/validation.md", help="report path (default docs/validation.md)")
     ap.add_argument("--command", default=None, help="command line to name in the report")
+    ap.add_argument("--mesh-tolerance", type=float, default=1e-6,
+                    help="tolerance of the refined-mesh section (default 1e-6)")
     args = ap.parse_args()
 
     nodes = [int(x) for x in args.nodes.split(",") if x.strip()]
@@ -242,6 +336,8 @@ def main():
     ours, meta, our_cmd = run_ours(binary, nodes, args.scenario, args.repeat)
     ref = {n: {p: run_reference(sys.executable, n, p, args.scenario, args.repeat) for p in ("P2", "P1")}
            for n in nodes}
+    refined, refined_ref, refined_cmd = run_refined(binary, args.scenario, args.mesh_tolerance, args.repeat,
+                                                    sys.executable)
     nproc, cpu = machine()
     checks = targets(nodes, ours, ref)
 
@@ -296,6 +392,7 @@ def main():
     for n in nodes:
         L.append(per_n_table(n, ours[n], ref[n]["P2"], ref[n]["P1"]))
         L.append("")
+    L.extend(refined_section(refined, refined_ref, refined_cmd, args.mesh_tolerance))
     L.append("## Notes")
     L.append("")
     L.append("- Landing error is ‖(x, z)(t_f)‖ and ‖(V_x, V_z)(t_f)‖ after integrating the nonlinear model "

@@ -12,17 +12,23 @@
 //!    the error of an LGR interval falls like n_k^(−p)). If n_k + P_k ≤
 //!    `max_points` the degree is raised; otherwise the interval is split
 //!    into B = max(2, ⌈(n_k + P_k)/n_min⌉) equal intervals of n_min points.
-//! 2. **Breaks at the events.** The thrust T and the gimbal rate χ are
-//!    bang-bang on most of a landing, and δ rides its limit on some: a
-//!    polynomial across a switch, or across the entry or exit of an arc on a
-//!    bound, rings or converges slowly however high its degree. Wherever T,
-//!    χ or δ changes between a bound and the interior (or the other bound)
-//!    from one collocation point to the next inside an interval, an event is
-//!    placed midway between them ([`events`]). An event in an interval next
-//!    to a break that the previous pass put at an event moves that break
-//!    onto it (the same switch, located better on the finer mesh); any other
-//!    splits its interval there. An event across a break is already where
-//!    it belongs.
+//!    Within `max_total_points`, the worst intervals are served first; the
+//!    others keep their points for this pass.
+//! 2. **Breaks at the events** ([`events`]). The thrust T and the gimbal
+//!    rate χ are bang-bang on most of a landing, and δ rides its limit on
+//!    some: a polynomial across a switch, or across the entry or exit of an
+//!    arc on a bound, rings or converges slowly however high its degree. A
+//!    switch between the bounds is placed by the impulse of the collocation
+//!    point between the two bang arcs; where a signal reaches or leaves a
+//!    bound, midway between the two points. In an interval still above the
+//!    tolerance, an event next to a break that the previous pass put at an
+//!    event of its kind moves that break onto it (the same switch, located
+//!    better on the finer mesh); any other splits its interval there (an
+//!    arc's end never into an interval narrower than [`MIN_ARC_WIDTH`]). A
+//!    switch on a break is where it belongs.
+//!
+//! Refinement stops at the tolerance, at `max_passes`, or when the point
+//! budget leaves no room for a finer mesh ([`Stop`]).
 //!
 //! Each pass starts warm: the previous answer carried onto the new mesh by
 //! its state and control polynomials ([`Nlp::interpolate_from`]), at
@@ -66,7 +72,8 @@ pub struct Pass {
 pub enum Stop {
     /// max_k e_k ≤ the tolerance.
     ToleranceMet,
-    /// The next mesh would have more than `max_total_points`.
+    /// The next mesh would have more than `max_total_points`, or the budget
+    /// left no room for a change (the next mesh was the last one).
     PointLimit,
     /// `max_passes` passes were solved.
     PassLimit,
@@ -142,7 +149,7 @@ pub fn solve(
         }
         let errs: Vec<f64> = errors.iter().map(|e| e.relative_error).collect();
         let (next, placed) = next_layout(&mesh, &errs, &events, &event_breaks, rs);
-        if next.nodes() > rs.max_total_points {
+        if next.nodes() > rs.max_total_points || next == sol.mesh {
             break Stop::PointLimit;
         }
         let mut refined = scenario.clone();
@@ -198,6 +205,13 @@ pub struct Event {
     /// bound after the switch.
     pub switch: Option<(usize, bool)>,
 }
+
+/// The narrowest interval, in τ, that a break at the end of an arc may
+/// leave (1 % of the trajectory): such a break is placed only to half a
+/// point spacing, and on the dispersed states the ends of arcs of T, χ and
+/// δ near one another otherwise split a few points into ever smaller
+/// intervals that took the point budget from the worst ones.
+pub const MIN_ARC_WIDTH: f64 = 0.02;
 
 /// Where a signal sits against its bounds at one collocation point.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -337,18 +351,54 @@ pub fn next_layout(
     event_breaks: &[Event],
     rs: &RefinementSettings,
 ) -> (MeshLayout, Vec<Event>) {
+    // The ph rule's wish per interval: its new point count (a split past
+    // `max_points`).
+    let wish: Vec<usize> = mesh
+        .intervals
+        .iter()
+        .zip(errors)
+        .map(|(iv, &e)| {
+            let n = iv.points;
+            if e <= rs.tolerance {
+                return n;
+            }
+            let raise = ((e / rs.tolerance).ln() / (n.max(2) as f64).ln())
+                .ceil()
+                .max(1.0) as usize;
+            n + raise
+        })
+        .collect();
+    let cost = |k: usize| {
+        let (n, want) = (mesh.intervals[k].points, wish[k]);
+        let after = if want <= rs.max_points {
+            want
+        } else {
+            want.div_ceil(rs.min_points).max(2) * rs.min_points
+        };
+        after.saturating_sub(n)
+    };
+    // Within the point budget (less what the events' splits may take), the
+    // worst intervals first; the others keep their points this pass.
+    let reserve = events.len() * rs.min_points;
+    let mut budget = rs.max_total_points.saturating_sub(mesh.n + reserve);
+    let mut order: Vec<usize> = (0..wish.len()).collect();
+    order.sort_by(|&a, &b| errors[b].total_cmp(&errors[a]));
+    let mut grant = vec![false; wish.len()];
+    for k in order {
+        if errors[k] > rs.tolerance && cost(k) <= budget {
+            budget -= cost(k);
+            grant[k] = true;
+        }
+    }
     // (τ_lo, τ_hi, points) of each interval of the new mesh.
     let mut segs: Vec<(f64, f64, usize)> = Vec::new();
-    for (iv, &e) in mesh.intervals.iter().zip(errors) {
+    for (k, iv) in mesh.intervals.iter().enumerate() {
         let n = iv.points;
-        if e <= rs.tolerance {
+        if !grant[k] {
             segs.push((iv.tau_lo, iv.tau_hi, n));
             continue;
         }
-        let raise = ((e / rs.tolerance).ln() / (n.max(2) as f64).ln())
-            .ceil()
-            .max(1.0) as usize;
-        let want = n + raise;
+        let want = wish[k];
         if want <= rs.max_points {
             segs.push((iv.tau_lo, iv.tau_hi, want));
         } else {
@@ -368,6 +418,13 @@ pub fn next_layout(
     let mut placed = Vec::new();
     for &event in events {
         let tau = event.tau;
+        // Only where the old mesh is not yet accurate; and an arc's end,
+        // placed only to half a point spacing, never makes an interval
+        // narrower than MIN_ARC_WIDTH (a switch, placed by its impulse, may).
+        let old = mesh.interval_of(tau);
+        if errors[old] <= rs.tolerance {
+            continue;
+        }
         let Some(j) = segs.iter().position(|s| tau > s.0 && tau < s.1) else {
             continue;
         };
@@ -396,6 +453,9 @@ pub fn next_layout(
             segs[j + 1].0 = tau;
         } else {
             let width = hi - lo;
+            if event.switch.is_none() && (tau - lo).min(hi - tau) < MIN_ARC_WIDTH {
+                continue;
+            }
             let left = ((n as f64 * (tau - lo) / width).round() as usize).max(rs.min_points);
             let right = ((n as f64 * (hi - tau) / width).round() as usize).max(rs.min_points);
             segs.splice(j..=j, [(lo, tau, left), (tau, hi, right)]);
@@ -461,32 +521,40 @@ mod tests {
 
     /// An event splits its interval, the points shared in proportion; an
     /// event next to a break placed at an event of its kind moves that
-    /// break onto it; ordinary breaks, and breaks of another kind, stay.
+    /// break onto it; ordinary breaks, and breaks of another kind, stay; an
+    /// interval already within the tolerance is left alone.
     #[test]
     fn events_split_intervals_or_move_their_breaks() {
         let mesh = Mesh::new(&[-1.0, 0.0, 1.0], &[8, 8]);
         let rs = settings(1e-6);
-        let (next, placed) = next_layout(&mesh, &[0.0, 0.0], &[switch(-0.5)], &[], &rs);
+        // 2e-6 on 8 points: the ph rule adds ⌈ln 2 / ln 8⌉ = 1 point.
+        let e = [2e-6, 2e-6];
+        let (next, placed) = next_layout(&mesh, &e, &[switch(-0.5)], &[], &rs);
         assert_eq!(next.breaks_tau, vec![-1.0, -0.5, 0.0, 1.0]);
-        assert_eq!(next.points, vec![4, 4, 8]);
+        assert_eq!(next.points, vec![5, 5, 9]);
         assert_eq!(placed, vec![switch(-0.5)]);
         // τ = 0 is a switch break of the previous pass: it moves.
-        let (next, placed) = next_layout(&mesh, &[0.0, 0.0], &[switch(0.6)], &[switch(0.0)], &rs);
+        let (next, placed) = next_layout(&mesh, &e, &[switch(0.6)], &[switch(0.0)], &rs);
         assert_eq!(next.breaks_tau, vec![-1.0, 0.6, 1.0]);
-        assert_eq!(next.points, vec![8, 8]);
+        assert_eq!(next.points, vec![9, 9]);
         assert_eq!(placed, vec![switch(0.6)]);
         // An ordinary break stays; so does a break of another kind, and an
         // event break that no event claims.
-        let (next, _) = next_layout(&mesh, &[0.0, 0.0], &[switch(0.6)], &[], &rs);
+        let (next, _) = next_layout(&mesh, &e, &[switch(0.6)], &[], &rs);
         assert_eq!(next.breaks_tau, vec![-1.0, 0.0, 0.6, 1.0]);
-        assert_eq!(next.points, vec![8, 5, 4]);
+        assert_eq!(next.points, vec![9, 5, 4]);
         let arc = Event {
             tau: 0.0,
             switch: None,
         };
-        let (next, placed) = next_layout(&mesh, &[0.0, 0.0], &[switch(0.6)], &[arc], &rs);
+        let (next, placed) = next_layout(&mesh, &e, &[switch(0.6)], &[arc], &rs);
         assert_eq!(next.breaks_tau, vec![-1.0, 0.0, 0.6, 1.0]);
         assert_eq!(placed, vec![switch(0.6), arc]);
+        // Within the tolerance on the left: the event there is ignored.
+        let (next, placed) = next_layout(&mesh, &[0.0, 2e-6], &[switch(-0.5)], &[], &rs);
+        assert_eq!(next.breaks_tau, vec![-1.0, 0.0, 1.0]);
+        assert_eq!(next.points, vec![8, 9]);
+        assert!(placed.is_empty());
     }
 
     /// A switch inside a quadrature cell is placed by the impulse of the
