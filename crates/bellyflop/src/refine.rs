@@ -359,7 +359,12 @@ pub fn next_layout(
         .zip(errors)
         .map(|(iv, &e)| {
             let n = iv.points;
-            if e <= rs.tolerance {
+            // An interval with an event inside is split there (step 2),
+            // not raised or split evenly: its error is the event's.
+            let has_event = events
+                .iter()
+                .any(|ev| ev.tau > iv.tau_lo && ev.tau < iv.tau_hi);
+            if e <= rs.tolerance || has_event {
                 return n;
             }
             let raise = ((e / rs.tolerance).ln() / (n.max(2) as f64).ln())
@@ -527,16 +532,17 @@ mod tests {
     fn events_split_intervals_or_move_their_breaks() {
         let mesh = Mesh::new(&[-1.0, 0.0, 1.0], &[8, 8]);
         let rs = settings(1e-6);
-        // 2e-6 on 8 points: the ph rule adds ⌈ln 2 / ln 8⌉ = 1 point.
+        // 2e-6 on 8 points: the ph rule adds ⌈ln 2 / ln 8⌉ = 1 point, but
+        // not to an interval with an event, which is split there instead.
         let e = [2e-6, 2e-6];
         let (next, placed) = next_layout(&mesh, &e, &[switch(-0.5)], &[], &rs);
         assert_eq!(next.breaks_tau, vec![-1.0, -0.5, 0.0, 1.0]);
-        assert_eq!(next.points, vec![5, 5, 9]);
+        assert_eq!(next.points, vec![4, 4, 9]);
         assert_eq!(placed, vec![switch(-0.5)]);
         // τ = 0 is a switch break of the previous pass: it moves.
         let (next, placed) = next_layout(&mesh, &e, &[switch(0.6)], &[switch(0.0)], &rs);
         assert_eq!(next.breaks_tau, vec![-1.0, 0.6, 1.0]);
-        assert_eq!(next.points, vec![9, 9]);
+        assert_eq!(next.points, vec![9, 8]);
         assert_eq!(placed, vec![switch(0.6)]);
         // An ordinary break stays; so does a break of another kind, and an
         // event break that no event claims.
