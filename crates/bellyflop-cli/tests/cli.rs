@@ -79,6 +79,53 @@ fn json_mesh_has_every_interval() {
     );
 }
 
+/// `--mesh-tolerance`: the JSON records every pass (its mesh, its error
+/// per interval), the answer is the last pass's mesh, its landing error
+/// re-integrates the collocation's polynomials, and stderr has one line per
+/// pass.
+#[test]
+fn json_refinement_records_every_pass() {
+    let (code, stdout, _) = bellyflop(&["solve", "--json", "--mesh-tolerance", "1e-6"]);
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let r = &v["refinement"];
+    assert_eq!(r["tolerance"].as_f64(), Some(1e-6));
+    assert!(r["stop"].is_string());
+    let passes = r["passes"].as_array().expect("refinement.passes");
+    assert!(passes.len() >= 2, "{}", passes.len());
+    for (k, p) in passes.iter().enumerate() {
+        assert_eq!(p["pass"], k + 1);
+        let points = p["mesh"]["points"].as_array().unwrap();
+        let total: u64 = points.iter().map(|x| x.as_u64().unwrap()).sum();
+        assert_eq!(p["nodes"].as_u64(), Some(total));
+        assert_eq!(
+            p["mesh"]["breaks_tau"].as_array().unwrap().len(),
+            points.len() + 1
+        );
+        let intervals = p["intervals"].as_array().unwrap();
+        assert_eq!(intervals.len(), points.len());
+        let worst = intervals
+            .iter()
+            .map(|i| i["relative_error"].as_f64().unwrap())
+            .fold(0.0, f64::max);
+        assert_eq!(p["max_relative_error"].as_f64(), Some(worst));
+        assert!(p["events_s"].is_array());
+    }
+    // The answer is on the last pass's mesh, N = Σ n_k of it.
+    let last = passes.last().unwrap();
+    assert_eq!(v["mesh_layout"], last["mesh"]);
+    assert_eq!(v["nodes"], last["nodes"]);
+    assert_eq!(v["propagation"]["controls"], "collocation");
+    let landing = v["landing_error"]["position_m"].as_f64().unwrap();
+    assert!(landing < 0.1, "{landing}");
+    let (_, _, stderr) = bellyflop(&["solve", "--mesh-tolerance", "1e-6"]);
+    assert_eq!(
+        stderr.lines().filter(|l| l.starts_with("pass ")).count(),
+        passes.len(),
+        "{stderr}"
+    );
+}
+
 /// `--repeat R` solves R times in one process: the answer of one run, the
 /// median time between the minimum and the maximum; R = 0 is bad input.
 #[test]

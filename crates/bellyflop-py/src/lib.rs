@@ -520,7 +520,7 @@ fn parse_interpolation(s: &str) -> PyResult<Interpolation> {
 /// Solve `scenario` with the overrides of `bellyflop solve` and return the
 /// `--json` object as a Solution.
 #[pyfunction]
-#[pyo3(signature = (scenario, nodes=None, intervals=None, method=None, formulation=None, interpolation="pchip"))]
+#[pyo3(signature = (scenario, nodes=None, intervals=None, method=None, formulation=None, interpolation="pchip", mesh_tolerance=None))]
 fn solve(
     py: Python<'_>,
     scenario: &Scenario,
@@ -529,6 +529,7 @@ fn solve(
     method: Option<&str>,
     formulation: Option<&str>,
     interpolation: &str,
+    mesh_tolerance: Option<f64>,
 ) -> PyResult<Solution> {
     let mut s = scenario.inner.clone();
     if nodes.is_some() || intervals.is_some() {
@@ -546,6 +547,9 @@ fn solve(
     }
     if let Some(m) = method {
         s.solver.method = parse_method(m)?;
+    }
+    if let Some(tol) = mesh_tolerance {
+        s.solver.refinement.tolerance = tol;
     }
     let interpolation = parse_interpolation(interpolation)?;
     s.validate().map_err(input_error)?;

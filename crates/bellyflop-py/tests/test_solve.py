@@ -72,6 +72,7 @@ def _bits(a) -> list:
         ({"nodes": 30}, ["--nodes", "30"]),
         ({"method": "scvx"}, ["--method", "scvx"]),
         ({"nodes": 20, "intervals": 4}, ["--nodes", "20", "--intervals", "4"]),
+        ({"mesh_tolerance": 1e-6}, ["--mesh-tolerance", "1e-6"]),
     ],
 )
 def test_equals_cli_json(cli, kwargs, args):

@@ -87,6 +87,7 @@ def solve(
     method: Optional[str] = None,
     formulation: Optional[str] = None,
     interpolation: str = "pchip",
+    mesh_tolerance: Optional[float] = None,
 ) -> Solution:
     """Solve one landing problem, as ``bellyflop solve --json`` does.
 
@@ -95,6 +96,9 @@ def solve(
     (``"direct"`` or ``"scvx"``) and ``formulation`` (``"exact"``,
     ``"paper"``, ``"vector"``) override the scenario; ``interpolation``
     (``"pchip"`` or ``"linear"``) rebuilds the controls for the landing error.
+    ``mesh_tolerance`` refines the mesh until every interval's relative error
+    is within it (``--mesh-tolerance``; the passes are in
+    ``to_dict()["refinement"]``).
 
     The GIL is released while the core solves. Raises :class:`InputError`
     on bad input; any other outcome is ``Solution.status``.
@@ -105,6 +109,7 @@ def solve(
         intervals=intervals,
         method=method,
         formulation=formulation,
+        mesh_tolerance=mesh_tolerance,
         interpolation=interpolation,
     )
 

@@ -135,6 +135,7 @@ def solve(
     method: Optional[str] = ...,
     formulation: Optional[str] = ...,
     interpolation: str = ...,
+    mesh_tolerance: Optional[float] = ...,
 ) -> Solution: ...
 def sim(scenario: Scenario, config: SimConfig, seed: int = ..., run: int = ...) -> Flight: ...
 def campaign_chunk(
