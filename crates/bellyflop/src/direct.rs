@@ -44,8 +44,6 @@ pub struct NlpResult {
     pub history: Vec<DirectIteration>,
     /// Largest |defect| of `w` (scaled).
     pub max_defect: f64,
-    /// The net bound multiplier z_U − z_L of every variable (scaled).
-    pub bound_duals: Vec<f64>,
 }
 
 // Constants of Wächter & Biegler (2006), Table 1 and §3, at IPOPT's defaults.
@@ -741,7 +739,6 @@ impl<'a> Driver<'a> {
         self.nlp.defects(&it.w, &mut self.ws.c);
         NlpResult {
             max_defect: inf_norm(&self.ws.c),
-            bound_duals: it.zu.iter().zip(&it.zl).map(|(u, l)| u - l).collect(),
             w: it.w,
             lambda: it.lambda,
             status,
@@ -1317,28 +1314,7 @@ pub fn solve_from(
     sol.method = crate::scenario::Method::Direct;
     sol.iterations = r.history.len();
     sol.direct_history = r.history;
-    sol.switching = switching(nlp, &r.bound_duals);
     sol
-}
-
-/// Estimates of the switching functions of T and χ at the collocation
-/// points: their net bound multipliers over the quadrature weights,
-/// (z_U − z_L)_i / w_i. The discrete multiplier of a bound at point i
-/// approximates w_i times the continuous one, which is the magnitude of
-/// ∂H/∂u on an arc at the bound; so the estimate is positive on an arc at the
-/// upper bound, negative at the lower, near zero off the bounds, and
-/// continuous in time where the control jumps: its zero locates a switch
-/// between two points far better than the points themselves.
-fn switching(nlp: &Nlp, bound_duals: &[f64]) -> Vec<[f64; 2]> {
-    (0..nlp.n)
-        .map(|i| {
-            let w = nlp.mesh.weights[i];
-            [
-                bound_duals[nlp.idx(i, crate::nlp::slot::T)] / w,
-                bound_duals[nlp.idx(i, crate::nlp::slot::CHI)] / w,
-            ]
-        })
-        .collect()
 }
 
 #[cfg(test)]

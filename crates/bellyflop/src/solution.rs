@@ -204,11 +204,6 @@ pub struct Solution {
     /// Interior-point iterations of the direct method (empty for SCvx).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub direct_history: Vec<DirectIteration>,
-    /// Per collocation point, estimates of the switching functions of T and
-    /// χ from the direct method's bound multipliers (empty for SCvx; see
-    /// [`crate::refine::events`]).
-    #[serde(skip)]
-    pub switching: Vec<[f64; 2]>,
     /// The passes of hp mesh refinement, when it ran ([`crate::refine`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refinement: Option<crate::refine::Refinement>,
@@ -327,7 +322,6 @@ impl Solution {
             method: Method::Scvx,
             history,
             direct_history: Vec::new(),
-            switching: Vec::new(),
             refinement: None,
             trajectory: t,
         }
