@@ -25,7 +25,6 @@
 use serde::{Deserialize, Serialize};
 
 use crate::radau::{interpolate, Lgr};
-use crate::scenario::Discretization;
 
 /// A mesh's shape, as data: M + 1 breaks τ_0 = −1 < τ_1 < … < τ_M = +1 and
 /// the LGR points n_k of each of the M intervals (N = Σ n_k). A scenario may
@@ -119,17 +118,6 @@ impl Mesh {
             "a mesh needs 1 ≤ intervals ≤ N"
         );
         Mesh::from_layout(&MeshLayout::uniform(n, intervals))
-    }
-
-    /// The mesh of a scenario's discretization: its explicit
-    /// `[discretization.mesh]` layout when given, else the uniform split of
-    /// `nodes` over `intervals`. The discretization must have passed
-    /// validation.
-    pub fn of(d: &Discretization) -> Mesh {
-        match &d.mesh {
-            Some(layout) => Mesh::from_layout(layout),
-            None => Mesh::uniform(d.nodes, d.intervals),
-        }
     }
 
     /// [`Mesh::new`] on a layout's breaks and point counts.

@@ -19,26 +19,12 @@
 //!
 //! with the maximum over all the nodes of the trajectory.
 
-use serde::Serialize;
-
 use crate::dynamics::{self, Model};
 use crate::propagate::{Dop853, IntegrationError, Stats};
 use crate::radau::{interpolate, Lgr};
 use crate::scenario::Scenario;
+pub use crate::solution::IntervalError;
 use crate::solution::{Solution, STATE_COLUMN_NAMES};
-
-/// The estimate on one interval.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct IntervalError {
-    /// Index of the interval, its collocation points n_k and its span \[s\].
-    pub interval: usize,
-    pub points: usize,
-    pub t_start_s: f64,
-    pub t_end_s: f64,
-    /// e_k (see the module's documentation), and the state where it is largest.
-    pub relative_error: f64,
-    pub worst_state: &'static str,
-}
 
 /// The estimate on every interval of `solution`'s mesh ([`Solution::mesh`]),
 /// with the vehicle model of `scenario`.

@@ -140,7 +140,7 @@ impl Nlp {
     /// ground bound z ≥ z_f at every node and the soft terms of `sv`.
     pub fn new(s: &Scenario, sv: &SolverSettings) -> Self {
         let d = &s.discretization;
-        let mesh = Mesh::of(d);
+        let mesh = d.collocation_mesh();
         let model = Model::new(&s.vehicle, &s.environment);
         let sc = Scaling::new(s, &model, Formulation::Exact);
         let (i, t) = (&s.initial, &s.terminal);

@@ -1,8 +1,7 @@
 //! What a solver reports as it iterates: one trait that both methods call
 //! (progress bars, logs, plots).
 
-use crate::refine::Pass;
-use crate::solution::{DirectIteration, IterationRecord};
+use crate::solution::{DirectIteration, IterationRecord, Pass};
 
 /// Receives each iteration as it completes (progress bars, logs, plots).
 pub trait Observer {

@@ -34,65 +34,16 @@
 //! its state and control polynomials ([`Nlp::interpolate_from`]), at
 //! μ_0 = [`crate::direct::WARM_MU`] (SCvx solves each pass cold).
 
-use serde::Serialize;
-
 use crate::direct;
 use crate::dynamics::Model;
 use crate::mesh::{Mesh, MeshLayout};
-use crate::mesh_error::{self, IntervalError};
+use crate::mesh_error;
 use crate::nlp::Nlp;
 use crate::observer::Observer;
 use crate::scenario::Scenario;
 use crate::settings::{Method, RefinementSettings, SolverSettings};
+pub use crate::solution::{Pass, Refinement, Stop};
 use crate::solution::{Solution, Status};
-
-/// One pass: the mesh, the answer's status and cost, and the error estimate.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Pass {
-    /// 1 for the first solve.
-    pub pass: usize,
-    pub mesh: MeshLayout,
-    /// N = Σ n_k.
-    pub nodes: usize,
-    pub status: Status,
-    pub iterations: usize,
-    pub solve_time_ms: f64,
-    pub final_mass_kg: f64,
-    /// The events detected on this pass's answer \[s\]: where T, χ or δ
-    /// reaches or leaves a bound ([`events`]).
-    pub events_s: Vec<f64>,
-    /// e_k of each interval, and their maximum.
-    pub intervals: Vec<IntervalError>,
-    pub max_relative_error: f64,
-}
-
-/// Why the refinement stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Stop {
-    /// max_k e_k ≤ the tolerance.
-    ToleranceMet,
-    /// The next mesh would have more than `max_total_points`, or the budget
-    /// left no room for a change (the next mesh was the last one).
-    PointLimit,
-    /// `max_passes` passes were solved.
-    PassLimit,
-    /// A pass's answer was not `solved`; the last solved one is returned
-    /// (or the first pass's, whatever its status).
-    SolveFailed,
-    /// The error could not be estimated (the integration failed).
-    EstimateFailed,
-}
-
-/// The record of a refinement, carried by its [`Solution`].
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Refinement {
-    pub tolerance: f64,
-    pub stop: Stop,
-    pub passes: Vec<Pass>,
-    /// The time of every pass, estimates and mesh building included \[ms\].
-    pub total_time_ms: f64,
-}
 
 /// Solve `scenario` and refine its mesh until every interval's relative
 /// error is at most `settings.refinement.tolerance` (which must be > 0).

@@ -206,7 +206,7 @@ pub struct Solution {
     pub direct_history: Vec<DirectIteration>,
     /// The passes of hp mesh refinement, when it ran ([`crate::refine`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub refinement: Option<crate::refine::Refinement>,
+    pub refinement: Option<Refinement>,
     /// The LCvx trajectory itself, for warm starts and re-propagation.
     #[serde(skip)]
     pub trajectory: Trajectory,
@@ -369,4 +369,65 @@ impl Solution {
         v["method"] = self.method.as_str().into();
         v
     }
+}
+
+/// The relative error of a solution on one mesh interval ([`crate::mesh_error`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IntervalError {
+    /// Index of the interval, its collocation points n_k and its span \[s\].
+    pub interval: usize,
+    pub points: usize,
+    pub t_start_s: f64,
+    pub t_end_s: f64,
+    /// e_k ([`crate::mesh_error`]), and the state where it is largest.
+    pub relative_error: f64,
+    pub worst_state: &'static str,
+}
+
+/// One pass: the mesh, the answer's status and cost, and the error estimate.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Pass {
+    /// 1 for the first solve.
+    pub pass: usize,
+    pub mesh: MeshLayout,
+    /// N = Σ n_k.
+    pub nodes: usize,
+    pub status: Status,
+    pub iterations: usize,
+    pub solve_time_ms: f64,
+    pub final_mass_kg: f64,
+    /// The events detected on this pass's answer \[s\]: where T, χ or δ
+    /// reaches or leaves a bound ([`crate::refine::events`]).
+    pub events_s: Vec<f64>,
+    /// e_k of each interval, and their maximum.
+    pub intervals: Vec<IntervalError>,
+    pub max_relative_error: f64,
+}
+
+/// Why the refinement stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stop {
+    /// max_k e_k ≤ the tolerance.
+    ToleranceMet,
+    /// The next mesh would have more than `max_total_points`, or the budget
+    /// left no room for a change (the next mesh was the last one).
+    PointLimit,
+    /// `max_passes` passes were solved.
+    PassLimit,
+    /// A pass's answer was not `solved`; the last solved one is returned
+    /// (or the first pass's, whatever its status).
+    SolveFailed,
+    /// The error could not be estimated (the integration failed).
+    EstimateFailed,
+}
+
+/// The record of a refinement, carried by its [`Solution`] ([`crate::refine`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Refinement {
+    pub tolerance: f64,
+    pub stop: Stop,
+    pub passes: Vec<Pass>,
+    /// The time of every pass, estimates and mesh building included \[ms\].
+    pub total_time_ms: f64,
 }

@@ -245,7 +245,7 @@ impl Transcription {
         x0[ix::OMEGA] = i.mass_kg.ln();
         let xf = t.state_si();
         let mut tr = Transcription {
-            mesh: Mesh::of(&s.discretization),
+            mesh: s.discretization.collocation_mesh(),
             model,
             form,
             layout,
