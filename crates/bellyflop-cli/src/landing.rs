@@ -47,10 +47,15 @@ pub fn print_summary(p: &Result<Propagation, IntegrationError>, optimized_mass_k
                 e.rate_radps.to_degrees()
             );
             let o = &p.options;
+            let controls = match o.controls {
+                bellyflop::propagate::ControlSource::Collocation => {
+                    "the collocation's control polynomials per interval".to_string()
+                }
+                _ => format!("{} controls", o.interpolation.as_str()),
+            };
             println!(
-                "              re-propagated (DOP853, tolerance {:.0e}, {} controls): terminal mass {:.1} kg ({:+.3} kg against {:.1} kg)",
+                "              re-propagated (DOP853, tolerance {:.0e}, {controls}): terminal mass {:.1} kg ({:+.3} kg against {:.1} kg)",
                 o.integrator.rtol,
-                o.interpolation.as_str(),
                 p.terminal_mass_kg,
                 p.mass_error_kg,
                 optimized_mass_kg

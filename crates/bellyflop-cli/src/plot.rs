@@ -115,8 +115,13 @@ impl<'a> PlotData<'a> {
                 self.solution.formulation_label(self.settings.formulation)
             ),
         };
+        let mesh = match (self.solution.intervals, &self.solution.refinement) {
+            (1, _) => String::new(),
+            (m, Some(r)) => format!(" over {m} intervals (refined, {} passes)", r.passes.len()),
+            (m, None) => format!(" over {m} intervals"),
+        };
         format!(
-            "{}: N = {}, {method}, {}, t_f = {:.3} s, final mass {:.1} kg",
+            "{}: N = {}{mesh}, {method}, {}, t_f = {:.3} s, final mass {:.1} kg",
             self.scenario.name,
             self.solution.nodes,
             self.solution.status.as_str(),
