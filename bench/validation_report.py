@@ -19,6 +19,7 @@ import platform
 import statistics
 import subprocess
 import sys
+import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -145,7 +146,6 @@ def run_refined(binary, scenario, tolerance, repeat, python):
         "stop": need(ref, "stop", "bellyflop refinement"),
         "controls": (r.get("propagation") or {}).get("controls"),
     }
-    import tempfile
     with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as fh:
         json.dump(r, fh)
         layout_path = fh.name

@@ -67,8 +67,20 @@ pub fn add_landing_json(v: &mut Value, p: &Result<Propagation, IntegrationError>
 
 /// The `mesh` field: the solution's relative error on each interval
 /// ([`crate::mesh_error`]) and the largest, or why it could not be estimated.
+///
+/// A refined solution's last pass estimated it already (refinement returns
+/// the answer of its last estimated pass); that estimate is reused.
 pub fn add_mesh_json(v: &mut Value, scenario: &Scenario, solution: &Solution) {
-    v["mesh"] = match crate::mesh_error::estimate(scenario, solution) {
+    let done = solution
+        .refinement
+        .as_ref()
+        .and_then(|r| r.passes.last())
+        .filter(|p| p.mesh == solution.mesh);
+    let errors = match done {
+        Some(p) => Ok(p.intervals.clone()),
+        None => crate::mesh_error::estimate(scenario, solution),
+    };
+    v["mesh"] = match errors {
         Ok(errors) => json!({
             "max_relative_error": errors.iter().fold(0.0f64, |m, e| m.max(e.relative_error)),
             "intervals": errors,
