@@ -302,20 +302,43 @@ pub fn next_layout(
     event_breaks: &[Event],
     rs: &RefinementSettings,
 ) -> (MeshLayout, Vec<Event>) {
+    // Whether step 2 will place an event inside interval k (split there,
+    // or move an event break at its end onto it): a switch always; an
+    // arc's end if it leaves no interval narrower than MIN_ARC_WIDTH, or if
+    // an event break of its kind ends the interval.
+    let kind = |a: &Event, b: &Event| a.switch.map(|s| s.0) == b.switch.map(|s| s.0);
+    let claims = |k: usize, ev: &Event| {
+        let iv = &mesh.intervals[k];
+        let inside = ev.tau > iv.tau_lo && ev.tau < iv.tau_hi;
+        let at_end = |b: f64| {
+            event_breaks
+                .iter()
+                .any(|e| kind(e, ev) && (e.tau - b).abs() < 1e-12)
+        };
+        inside
+            && errors[k] > rs.tolerance
+            && (ev.switch.is_some()
+                || (ev.tau - iv.tau_lo).min(iv.tau_hi - ev.tau) >= MIN_ARC_WIDTH
+                || at_end(iv.tau_lo)
+                || at_end(iv.tau_hi))
+    };
+    let claimed: Vec<bool> = (0..mesh.intervals.len())
+        .map(|k| events.iter().any(|ev| claims(k, ev)))
+        .collect();
     // The ph rule's wish per interval: its new point count (a split past
     // `max_points`).
     let wish: Vec<usize> = mesh
         .intervals
         .iter()
         .zip(errors)
-        .map(|(iv, &e)| {
+        .enumerate()
+        .map(|(k, (iv, &e))| {
             let n = iv.points;
-            // An interval with an event inside is split there (step 2),
-            // not raised or split evenly: its error is the event's.
-            let has_event = events
-                .iter()
-                .any(|ev| ev.tau > iv.tau_lo && ev.tau < iv.tau_hi);
-            if e <= rs.tolerance || has_event {
+            // An interval with an event placed inside is split there (step
+            // 2), not raised or split evenly: its error is the event's. One
+            // whose events are too near its ends to place follows the ph
+            // rule (it stalled otherwise, its error never falling).
+            if e <= rs.tolerance || claimed[k] {
                 return n;
             }
             let raise = ((e / rs.tolerance).ln() / (n.max(2) as f64).ln())
@@ -335,7 +358,10 @@ pub fn next_layout(
     };
     // Within the point budget (less what the events' splits may take), the
     // worst intervals first; the others keep their points this pass.
-    let reserve = events.len() * rs.min_points;
+    let reserve = (0..mesh.intervals.len())
+        .map(|k| events.iter().filter(|ev| claims(k, ev)).count())
+        .sum::<usize>()
+        * rs.min_points;
     let mut budget = rs.max_total_points.saturating_sub(mesh.n + reserve);
     let mut order: Vec<usize> = (0..wish.len()).collect();
     order.sort_by(|&a, &b| errors[b].total_cmp(&errors[a]));
@@ -387,16 +413,11 @@ pub fn next_layout(
         let (lo, hi, n) = segs[j];
         // An event break of the same kind (the same signal's switch, or an
         // arc's end) at this interval's either end, not yet moved.
-        let same = |e: &Event| match (e.switch, event.switch) {
-            (Some((a, _)), Some((b, _))) => a == b,
-            (None, None) => true,
-            _ => false,
-        };
         let near = |b: f64| {
             event_breaks
                 .iter()
                 .enumerate()
-                .find(|&(k, e)| !moved[k] && same(e) && (e.tau - b).abs() < 1e-12)
+                .find(|&(k, e)| !moved[k] && kind(e, &event) && (e.tau - b).abs() < 1e-12)
                 .map(|(k, _)| k)
         };
         if let Some(k) = (j > 0).then(|| near(lo)).flatten() {
@@ -512,6 +533,32 @@ mod tests {
         assert_eq!(next.breaks_tau, vec![-1.0, 0.0, 1.0]);
         assert_eq!(next.points, vec![8, 9]);
         assert!(placed.is_empty());
+    }
+
+    /// An arc's end too near its interval's break to be placed (closer than
+    /// MIN_ARC_WIDTH) leaves the interval to the ph rule: it gains points
+    /// (it kept its points and its error, pass after pass, before), and the
+    /// point budget is not reserved for it.
+    #[test]
+    fn an_event_too_near_a_break_leaves_its_interval_to_the_ph_rule() {
+        let mesh = Mesh::new(&[-1.0, 0.0, 1.0], &[5, 5]);
+        let rs = settings(1e-6);
+        let arc_end = Event {
+            tau: 0.01,
+            switch: None,
+        };
+        let (next, placed) = next_layout(&mesh, &[1e-7, 1e-4], &[arc_end], &[], &rs);
+        // 5 points at 1e-4: ⌈ln 100 / ln 5⌉ = 3 more.
+        assert_eq!(next.points, vec![5, 8]);
+        assert_eq!(next.breaks_tau, vec![-1.0, 0.0, 1.0]);
+        assert!(placed.is_empty(), "{placed:?}");
+        // The same event far enough from the break splits the interval.
+        let inside = Event {
+            tau: 0.5,
+            switch: None,
+        };
+        let (next, _) = next_layout(&mesh, &[1e-7, 1e-4], &[inside], &[], &rs);
+        assert_eq!(next.breaks_tau, vec![-1.0, 0.0, 0.5, 1.0]);
     }
 
     /// A switch inside a quadrature cell is placed by the impulse of the
