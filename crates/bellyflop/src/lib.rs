@@ -5,6 +5,7 @@
 //! - [`dynamics`]: the models of Eq. (1)–(3), (8), (21)–(22) and their Jacobians;
 //! - [`radau`]: LGR nodes, weights, differentiation and interpolation;
 //! - [`mesh`]: the global LGR mesh or an hp mesh of LGR intervals;
+//! - [`control_profile`]: the flyable controls between the collocation points;
 //! - [`mesh_error`]: the relative error of a solution on each mesh interval;
 //! - [`refine`]: hp mesh refinement to a tolerance, with breaks at the switches;
 //! - [`transcription`]: the convex subproblem P4 as conic data for Clarabel;
@@ -25,6 +26,7 @@
 //! - [`campaign`]: Monte Carlo rows (runs.csv) and summary.
 pub mod accuracy;
 pub mod campaign;
+pub mod control_profile;
 
 pub mod direct;
 pub mod dynamics;

@@ -5,10 +5,19 @@
 //! On interval k, with its n_k collocation points:
 //! - the solution's state polynomial X(τ) is the degree-n_k interpolant
 //!   through the interval's n_k + 1 nodes;
-//! - X̃(τ) integrates the dynamics (Eq. 1–3, with δ̇ = χ) from X at the
-//!   interval's first node, with the mesh's controls: the degree-(n_k − 1)
-//!   interpolants of T and χ through the collocation points (DOP853,
-//!   tolerance 1e-10);
+//! - X̃(τ) integrates the dynamics (Eq. 1–3) from X at the interval's first
+//!   node with the controls as they are flown when the landing error is
+//!   measured ([`crate::propagate`]'s default nozzle model): the thrust of
+//!   [`crate::control_profile`] (within its bounds, each collocation point's
+//!   impulse kept; on interior arcs the interpolant through the collocation
+//!   points), and the nozzle angle δ as its state polynomial, clamped to
+//!   ±δ_max (its own error is that clamp), by DOP853 at tolerance 1e-10,
+//!   stopping at the thrust's jumps. δ's polynomial has χ's interpolant as
+//!   its derivative, so integrating δ̇ = χ with χ's interpolant would give
+//!   it back; with χ held within its bounds instead, the estimate read the
+//!   χ switches' placement inside their quadrature cells (about 1e-3 rad of
+//!   δ, the worst state on 97 of 101 refined envelope states) that the
+//!   landing does not feel;
 //! - they are compared at the n_k + 1 LGR points of one degree higher,
 //!   mapped to the interval, and at its end. The error is relative, as
 //!   GPOPS-II's is:
@@ -19,6 +28,7 @@
 //!
 //! with the maximum over all the nodes of the trajectory.
 
+use crate::control_profile::Profile;
 use crate::dynamics::{self, Model};
 use crate::propagate::{Dop853, IntegrationError, Stats};
 use crate::radau::{interpolate, Lgr};
@@ -59,18 +69,20 @@ pub fn estimate(
     let integrator = Dop853::default();
     let tf = s.tf_s;
     let time = |tau: f64| 0.5 * (tau + 1.0) * tf;
+    // The controls as flown (clamped, impulse kept: crate::control_profile).
+    let t_nodes: Vec<f64> = mesh.nodes.iter().map(|&tau| time(tau)).collect();
+    let delta_max = model.max_gimbal_rad;
+    let thrust = Profile::new(
+        &t_nodes,
+        &s.mesh.points,
+        &s.thrust_n,
+        model.min_thrust_n,
+        model.max_thrust_n,
+    );
+    let mut stops = Vec::new();
     let mut out = Vec::with_capacity(mesh.intervals.len());
     for (k, iv) in mesh.intervals.iter().enumerate() {
         let nodes = &mesh.nodes[iv.start..=iv.start + iv.points];
-        let points = &mesh.nodes[iv.start..iv.start + iv.points];
-        let control = |values: &[f64], tau: f64| {
-            interpolate(
-                points,
-                &iv.lgr.control_bary,
-                &values[iv.start..iv.start + iv.points],
-                tau,
-            )
-        };
         let state_poly = |i: usize, tau: f64| {
             interpolate(
                 nodes,
@@ -88,23 +100,39 @@ pub fn estimate(
             .map(|&r| iv.tau_lo + half * (r + 1.0))
             .skip(1) // τ_lo itself: the integration starts there.
             .collect();
-        let rhs = |t: f64, y: &[f64; 8]| -> [f64; 8] {
-            let tau = 2.0 * t / tf - 1.0;
-            let thrust_n = control(&s.thrust_n, tau);
-            let chi = control(&s.gimbal_rate_radps, tau);
-            let p = [y[0], y[1], y[2], y[3], y[4], y[5], y[6]];
-            let f = dynamics::rhs_physical(&model, &p, thrust_n, y[7]);
-            [f[0], f[1], f[2], f[3], f[4], f[5], f[6], chi]
+        // The nozzle as flown: δ's polynomial within its bounds.
+        let delta = |tau: f64| state_poly(7, tau).clamp(-delta_max, delta_max);
+        let rhs = |t: f64, y: &[f64; 7]| -> [f64; 7] {
+            dynamics::rhs_physical(&model, y, thrust.at(t), delta(2.0 * t / tf - 1.0))
         };
-        let mut y: [f64; 8] = std::array::from_fn(|i| states[i][iv.start]);
+        let mut y: [f64; 7] = std::array::from_fn(|i| states[i][iv.start]);
         let (mut t, mut h, mut stats) = (time(iv.tau_lo), 0.0, Stats::default());
         let (mut worst, mut worst_state) = (0.0f64, 0usize);
         for &tau in &taus {
             let t1 = time(tau);
-            y = integrator.integrate(rhs, t, y, t1, &mut h, &mut stats, |_, _| {})?;
+            // Stop at the controls' jumps rather than step across them.
+            stops.clear();
+            stops.push(t);
+            thrust.jumps_in(t, t1, &mut stops);
+            stops[1..].sort_by(f64::total_cmp);
+            stops.push(t1);
+            for span in stops.windows(2) {
+                if span[1] > span[0] {
+                    y = integrator.integrate(
+                        &rhs,
+                        span[0],
+                        y,
+                        span[1],
+                        &mut h,
+                        &mut stats,
+                        |_, _| {},
+                    )?;
+                }
+            }
             t = t1;
             for i in 0..8 {
-                let e = (y[i] - state_poly(i, tau)).abs() / scale[i];
+                let flown = if i < 7 { y[i] } else { delta(tau) };
+                let e = (flown - state_poly(i, tau)).abs() / scale[i];
                 if e > worst || !e.is_finite() {
                     worst = e;
                     worst_state = i;

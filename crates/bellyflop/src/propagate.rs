@@ -71,15 +71,21 @@
 //! **On an hp mesh** the controls are interpolated interval by interval
 //! ([`Controls::interval_points`]), and **for a refined solution**
 //! ([`crate::refine`], breaks at the switches) by the collocation's own
-//! polynomials, clamped to the bounds ([`ControlSource::Collocation`]): with
-//! the switches on breaks nothing rings, and on the paper's case refined to
-//! 1e-6 (6 passes, 96 points) they land 6 mm and 1.6 mm/s from the pad where
-//! PCHIP's cubics, interval by interval, miss by 0.18 m and 0.04 m/s
-//! (`bellyflop solve --mesh-tolerance 1e-6`, 2026-12-02).
+//! polynomials, as they can be flown ([`ControlSource::Collocation`],
+//! [`crate::control_profile`]: within the bounds, held over the quadrature
+//! cell of a point on a bound, and bang–bang inside the cell of a switch,
+//! each point's impulse kept). On the paper's case refined to 1e-6 (6
+//! passes, 96 points) the clamped polynomials landed 6 mm and 1.6 mm/s from
+//! the pad where PCHIP's cubics, interval by interval, missed by 0.18 m and
+//! 0.04 m/s (`bellyflop solve --mesh-tolerance 1e-6`, 2026-12-02); on the
+//! refined envelope states the clamp lost up to 33 kg of propellant (the
+//! propagation's mass error), the profile a fraction of a kilogram
+//! (BENCHMARKS.md, "Mesh refinement", `bench/refinement.py`).
 
 use serde::Serialize;
 use thiserror::Error;
 
+use crate::control_profile::Profile;
 use crate::dynamics::{self, Model};
 use crate::scenario::Scenario;
 use crate::solution::Solution;
@@ -645,12 +651,13 @@ pub enum ControlSource {
     /// [`Options::interpolation`] through the nodes (per interval on an hp
     /// mesh, see [`Controls::interval_points`]).
     Nodes,
-    /// The collocation's own polynomials, per interval: T and χ of degree
-    /// n_k − 1 through its collocation points, δ of degree n_k through its
-    /// nodes, extrapolated to the interval's end and kept within their
-    /// bounds. On a refined mesh the controls are smooth inside each
-    /// interval, and these converge as the collocation does, where PCHIP's
-    /// cubics do not (BENCHMARKS.md, "Mesh refinement").
+    /// The collocation's own polynomials, per interval, as they can be
+    /// flown: T and χ by [`crate::control_profile::Profile`] (degree
+    /// n_k − 1 through its collocation points on interior arcs, held on the
+    /// bounds, bang–bang across a switch, within the bounds), δ of degree
+    /// n_k through its nodes, clamped. On a refined mesh the controls are
+    /// smooth inside each interval, and these converge as the collocation
+    /// does, where PCHIP's cubics do not (BENCHMARKS.md, "Mesh refinement").
     Collocation,
 }
 
@@ -723,9 +730,9 @@ pub struct Controls<'a> {
     pub collocation: bool,
 }
 
-/// One interval's collocation polynomials: its point times and their
-/// barycentric weights, then its node times and theirs.
-type PiecePolynomials = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+/// One interval's polynomial of δ: its node times and their barycentric
+/// weights.
+type PiecePolynomials = (Vec<f64>, Vec<f64>);
 
 /// A propagated trajectory: times, states and nozzle angles at the accepted
 /// steps, and the integrator's work.
@@ -796,24 +803,35 @@ pub fn integrate_controls(
             )
         })
         .collect();
-    // The collocation's polynomials per piece: (point times, their
-    // barycentric weights), and the same over the piece's nodes for δ.
+    // The collocation's polynomials of δ per piece (its node times and
+    // their barycentric weights), and the flyable profiles of T and χ.
     let polys: Vec<PiecePolynomials> = if c.collocation {
         pieces
             .iter()
             .map(|&(start, n)| {
-                let tp = c.t_s[start..start + n].to_vec();
                 let tn = c.t_s[start..=start + n].to_vec();
-                let (bp, bn) = (
-                    crate::radau::barycentric_weights(&tp),
-                    crate::radau::barycentric_weights(&tn),
-                );
-                (tp, bp, tn, bn)
+                let bn = crate::radau::barycentric_weights(&tn);
+                (tn, bn)
             })
             .collect()
     } else {
         Vec::new()
     };
+    let points: Vec<usize> = pieces.iter().map(|&(_, n)| n).collect();
+    let profiles = c.collocation.then(|| {
+        let r = model.max_gimbal_rate_radps;
+        (
+            Profile::new(
+                c.t_s,
+                &points,
+                c.thrust_n,
+                model.min_thrust_n,
+                model.max_thrust_n,
+            ),
+            Profile::new(c.t_s, &points, c.gimbal_rate_radps, -r, r),
+        )
+    });
+    let mut stops = Vec::new();
     let piece_of: Vec<usize> = pieces
         .iter()
         .enumerate()
@@ -842,23 +860,16 @@ pub fn integrate_controls(
         let local = k - pieces[j].0;
         let (start, np) = pieces[j];
         let poly = polys.get(j);
-        let thrust_at = |t: f64| match poly {
-            Some((tp, bp, _, _)) => {
-                crate::radau::interpolate(tp, bp, &c.thrust_n[start..start + np], t)
-                    .clamp(model.min_thrust_n, model.max_thrust_n)
-            }
+        let thrust_at = |t: f64| match &profiles {
+            Some((thrust, _)) => thrust.at(t),
             None => thrust.eval_on(local, t),
         };
-        let chi_at = |t: f64| match poly {
-            Some((tp, bp, _, _)) => {
-                let r = model.max_gimbal_rate_radps;
-                crate::radau::interpolate(tp, bp, &c.gimbal_rate_radps[start..start + np], t)
-                    .clamp(-r, r)
-            }
+        let chi_at = |t: f64| match &profiles {
+            Some((_, chi)) => chi.at(t),
             None => chi.eval_on(local, t),
         };
         let delta_at = |t: f64| match poly {
-            Some((_, _, tn, bn)) => {
+            Some((tn, bn)) => {
                 let r = model.max_gimbal_rad;
                 crate::radau::interpolate(tn, bn, &c.delta_rad[start..=start + np], t).clamp(-r, r)
             }
@@ -873,22 +884,37 @@ pub fn integrate_controls(
             let f = dynamics::rhs_physical(model, &physical(y), thrust_n, delta_rad);
             [f[0], f[1], f[2], f[3], f[4], f[5], f[6], ddelta]
         };
-        y = options.integrator.integrate(
-            rhs,
-            c.t_s[k],
-            y,
-            c.t_s[k + 1],
-            &mut h,
-            &mut stats,
-            |t, y| {
-                t_out.push(t);
-                states.push(physical(y));
-                delta_out.push(match nozzle {
-                    NozzleModel::Angle => delta_at(t),
-                    NozzleModel::Rate => y[7],
-                });
-            },
-        )?;
+        // Stop at the profiles' jumps inside the node interval, instead of
+        // letting the step-size control find them.
+        stops.clear();
+        stops.push(c.t_s[k]);
+        if let Some((thrust, chi)) = &profiles {
+            thrust.jumps_in(c.t_s[k], c.t_s[k + 1], &mut stops);
+            chi.jumps_in(c.t_s[k], c.t_s[k + 1], &mut stops);
+            stops[1..].sort_by(f64::total_cmp);
+        }
+        stops.push(c.t_s[k + 1]);
+        for span in stops.windows(2) {
+            if span[1] <= span[0] {
+                continue;
+            }
+            y = options.integrator.integrate(
+                &rhs,
+                span[0],
+                y,
+                span[1],
+                &mut h,
+                &mut stats,
+                |t, y| {
+                    t_out.push(t);
+                    states.push(physical(y));
+                    delta_out.push(match nozzle {
+                        NozzleModel::Angle => delta_at(t),
+                        NozzleModel::Rate => y[7],
+                    });
+                },
+            )?;
+        }
     }
     Ok((t_out, states, delta_out, stats))
 }

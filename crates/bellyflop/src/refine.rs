@@ -34,6 +34,7 @@
 //! its state and control polynomials ([`Nlp::interpolate_from`]), at
 //! μ_0 = [`crate::direct::WARM_MU`] (SCvx solves each pass cold).
 
+use crate::control_profile::{activity, Activity};
 use crate::direct;
 use crate::dynamics::Model;
 use crate::mesh::{Mesh, MeshLayout};
@@ -163,28 +164,6 @@ pub struct Event {
 /// δ near one another otherwise split a few points into ever smaller
 /// intervals that took the point budget from the worst ones.
 pub const MIN_ARC_WIDTH: f64 = 0.02;
-
-/// Where a signal sits against its bounds at one collocation point.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Activity {
-    Lower,
-    Interior,
-    Upper,
-}
-
-/// A signal within this fraction of its range of a bound is on that bound.
-const ON_BOUND: f64 = 1e-2;
-
-fn activity(v: f64, lo: f64, hi: f64) -> Activity {
-    let tol = ON_BOUND * (hi - lo);
-    if v <= lo + tol {
-        Activity::Lower
-    } else if v >= hi - tol {
-        Activity::Upper
-    } else {
-        Activity::Interior
-    }
-}
 
 /// The events of a solution, in τ:
 ///
