@@ -102,13 +102,26 @@ pub(crate) fn solve_on_mesh(
     settings: &SolverSettings,
     observer: &mut dyn Observer,
 ) -> Solution {
+    solve_on_mesh_keeping_duals(scenario, settings, observer).0
+}
+
+/// [`solve_on_mesh`], and with the direct method the NLP and the
+/// multipliers of its answer (the warm start of refinement's next pass).
+pub(crate) fn solve_on_mesh_keeping_duals(
+    scenario: &Scenario,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+) -> (Solution, Option<(nlp::Nlp, direct::Duals)>) {
     let start = std::time::Instant::now();
     if let Some(certificate) = feasibility::certify(scenario) {
-        return certified(scenario, settings, &certificate, start);
+        return (certified(scenario, settings, &certificate, start), None);
     }
-    let mut sol = match settings.method {
-        Method::Scvx => scvx::solve(scenario, settings, observer),
-        Method::Direct => direct::solve(scenario, settings, observer),
+    let (mut sol, duals) = match settings.method {
+        Method::Scvx => (scvx::solve(scenario, settings, observer), None),
+        Method::Direct => {
+            let (sol, nlp, duals) = direct::solve_keeping_duals(scenario, settings, observer);
+            (sol, Some((nlp, duals)))
+        }
     };
     if sol.status == Status::Infeasible {
         sol.status = Status::NotConverged;
@@ -119,7 +132,7 @@ pub(crate) fn solve_on_mesh(
             sol.message
         );
     }
-    sol
+    (sol, duals)
 }
 
 /// The answer for a certified-infeasible scenario: status `infeasible`, the

@@ -597,6 +597,52 @@ impl Nlp {
         w
     }
 
+    /// The multipliers of an answer on `from`'s mesh carried onto this
+    /// NLP's, for a primal–dual warm start ([`crate::direct::solve_nlp_warm`]).
+    ///
+    /// Collocation multipliers scale with the quadrature weights: λ_ic/w_i
+    /// is the discrete costate of state c at τ_i, and a bound multiplier of
+    /// a slot at node k, over w_k (w_{N−1} at node N), a density of the
+    /// path multiplier. Each density is carried piecewise linearly in τ
+    /// (multipliers of bounds switch on and off with their arcs, where a
+    /// polynomial would ring) and multiplied by this mesh's weights; t̂_f's
+    /// bound multipliers are copied.
+    pub fn interpolate_duals_from(
+        &self,
+        from: &Nlp,
+        duals: &crate::direct::Duals,
+    ) -> crate::direct::Duals {
+        let weight = |nlp: &Nlp, k: usize| nlp.mesh.weights[k.min(nlp.n - 1)];
+        let carry = |values: &dyn Fn(usize) -> f64, count: usize, to: usize| -> Vec<f64> {
+            let xs = &from.mesh.nodes[..count];
+            let ys: Vec<f64> = (0..count).map(|k| values(k) / weight(from, k)).collect();
+            (0..to)
+                .map(|k| weight(self, k) * piecewise_linear(xs, &ys, self.mesh.nodes[k]))
+                .collect()
+        };
+        let mut lambda = vec![0.0; self.n_con()];
+        for c in 0..NS {
+            let new = carry(&|i| duals.lambda[i * NS + c], from.n, self.n);
+            for (i, v) in new.into_iter().enumerate() {
+                lambda[i * NS + c] = v;
+            }
+        }
+        let bound = |z: &[f64]| {
+            let mut out = vec![0.0; self.n_var()];
+            for s in 0..NL {
+                let new = carry(&|k| z[from.idx(k, s)], from.n + 1, self.n + 1);
+                for (k, v) in new.into_iter().enumerate() {
+                    out[self.idx(k, s)] = v;
+                }
+            }
+            out[self.tf_idx()] = z[from.tf_idx()];
+            out
+        };
+        let zl = bound(&duals.zl);
+        let zu = bound(&duals.zu);
+        crate::direct::Duals { lambda, zl, zu }
+    }
+
     /// Node k of the scaled vector from P2's physical state (mass in kg)
     /// and, at a collocation point, the thrust \[N\] and χ \[rad/s\]: with the
     /// soft margin on, the thrust within its band [T_lo, T_hi] and the rest
@@ -617,6 +663,20 @@ impl Nlp {
             w[self.idx(k, slot::CHI)] = self.scaled(slot::CHI, chi);
         }
     }
+}
+
+/// The piecewise-linear interpolant through (xs, ys) (xs increasing) at x,
+/// held constant beyond the ends.
+fn piecewise_linear(xs: &[f64], ys: &[f64], x: f64) -> f64 {
+    let j = xs.partition_point(|&v| v <= x);
+    if j == 0 {
+        return ys[0];
+    }
+    if j == xs.len() {
+        return ys[j - 1];
+    }
+    let (x0, x1) = (xs[j - 1], xs[j]);
+    ys[j - 1] + (ys[j] - ys[j - 1]) * (x - x0) / (x1 - x0)
 }
 
 #[cfg(test)]
@@ -734,6 +794,48 @@ mod tests {
         let mut d = vec![0.0; nlp.n_con()];
         nlp.defects(&w, &mut d);
         assert!(d.iter().all(|v| v.abs() < 1e-12), "{d:?}");
+    }
+
+    /// Multipliers carried onto their own mesh come back unchanged (the
+    /// densities are divided and multiplied by the same weights), and onto
+    /// a finer mesh they keep the discrete costate λ_i/w_i.
+    #[test]
+    fn duals_carried_onto_a_mesh_keep_their_densities() {
+        let from = nlp();
+        let nv = from.n_var();
+        let duals = crate::direct::Duals {
+            lambda: (0..from.n_con()).map(|j| (j as f64 * 0.37).sin()).collect(),
+            zl: (0..nv).map(|j| 1.0 + (j as f64 * 0.11).cos()).collect(),
+            zu: (0..nv).map(|j| 2.0 + (j as f64 * 0.23).sin()).collect(),
+        };
+        let same = from.interpolate_duals_from(&from, &duals);
+        for (a, b) in [
+            (&same.lambda, &duals.lambda),
+            (&same.zl, &duals.zl),
+            (&same.zu, &duals.zu),
+        ] {
+            for (x, y) in a.iter().zip(b.iter()) {
+                assert!((x - y).abs() <= 1e-12 * y.abs().max(1.0), "{x} {y}");
+            }
+        }
+        // A constant costate on the coarse mesh is constant on a finer one.
+        let mut s = Scenario::paper();
+        s.discretization.nodes = 12;
+        s.discretization.intervals = 3;
+        let to = Nlp::new(&s, &SolverSettings::default());
+        let mut flat = duals.clone();
+        for i in 0..from.n {
+            for c in 0..NS {
+                flat.lambda[i * NS + c] = (c as f64 + 1.0) * from.mesh.weights[i];
+            }
+        }
+        let fine = to.interpolate_duals_from(&from, &flat);
+        for i in 0..to.n {
+            for c in 0..NS {
+                let density = fine.lambda[i * NS + c] / to.mesh.weights[i];
+                assert!((density - (c as f64 + 1.0)).abs() < 1e-12, "{density}");
+            }
+        }
     }
 
     #[test]

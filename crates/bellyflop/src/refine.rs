@@ -31,8 +31,10 @@
 //! budget leaves no room for a finer mesh ([`Stop`]).
 //!
 //! Each pass starts warm: the previous answer carried onto the new mesh by
-//! its state and control polynomials ([`Nlp::interpolate_from`]), at
-//! μ_0 = [`crate::direct::WARM_MU`] (SCvx solves each pass cold).
+//! its state and control polynomials ([`Nlp::interpolate_from`]) and its
+//! multipliers by their densities over the quadrature weights
+//! ([`Nlp::interpolate_duals_from`]), at μ_0 = [`WARM_PD_MU`] (SCvx solves
+//! each pass cold).
 
 use crate::control_profile::{activity, Activity};
 use crate::direct;
@@ -61,7 +63,7 @@ pub fn solve(
     let rs = &settings.refinement;
     let model = Model::new(&scenario.vehicle, &scenario.environment);
     let mut current = scenario.clone();
-    let mut sol = crate::solve_on_mesh(&current, settings, observer);
+    let (mut sol, mut duals) = crate::solve_on_mesh_keeping_duals(&current, settings, observer);
     let mut passes = Vec::new();
     let mut iterations = 0;
     let mut event_breaks: Vec<Event> = Vec::new();
@@ -108,13 +110,14 @@ pub fn solve(
         refined.discretization.nodes = next.nodes();
         refined.discretization.intervals = next.intervals();
         refined.discretization.mesh = Some(next);
-        let answer = solve_warm(&sol, &refined, settings, observer);
+        let (answer, answer_duals) = solve_warm(&sol, duals.as_ref(), &refined, settings, observer);
         if answer.status != Status::Solved {
             iterations += answer.iterations;
             break Stop::SolveFailed;
         }
         current = refined;
         sol = answer;
+        duals = answer_duals;
         event_breaks = placed;
     };
     sol.iterations = iterations;
@@ -129,24 +132,46 @@ pub fn solve(
 }
 
 /// One pass on `to`'s mesh, warm from `prev` (an answer on another mesh)
-/// with the direct method, cold with SCvx.
+/// with the direct method: primal–dual from the multipliers of `prev`'s NLP
+/// when it has them, at μ_0 = [`WARM_PD_MU`]; primal only at
+/// [`direct::WARM_MU`] otherwise. SCvx solves each pass cold.
 fn solve_warm(
     prev: &Solution,
+    prev_duals: Option<&(Nlp, direct::Duals)>,
     to: &Scenario,
     settings: &SolverSettings,
     observer: &mut dyn Observer,
-) -> Solution {
+) -> (Solution, Option<(Nlp, direct::Duals)>) {
     match settings.method {
-        Method::Scvx => crate::solve_on_mesh(to, settings, observer),
+        Method::Scvx => (crate::solve_on_mesh(to, settings, observer), None),
         Method::Direct => {
             let nlp = Nlp::new(to, settings);
             let w0 = nlp.interpolate_from(prev);
             let mut warm = settings.clone();
-            warm.direct.mu_init = direct::WARM_MU;
-            direct::solve_from(to, &warm, &nlp, &w0, None, observer)
+            let (sol, duals) = match prev_duals {
+                Some((from, duals)) => {
+                    let duals = nlp.interpolate_duals_from(from, duals);
+                    warm.direct.mu_init = WARM_PD_MU;
+                    let start = direct::Start::PrimalDual(&w0, &duals);
+                    direct::solve_from_start(to, &warm, &nlp, start, observer)
+                }
+                _ => {
+                    warm.direct.mu_init = direct::WARM_MU;
+                    direct::solve_from_keeping_duals(to, &warm, &nlp, &w0, None, observer)
+                }
+            };
+            (sol, Some((nlp, duals)))
         }
     }
 }
+
+/// μ_0 of a primal–dual warm pass. Measured on the paper's case and 20
+/// envelope states (refined to 1e-6): warm passes took a median of 25
+/// interior-point iterations from the primal start at μ_0 = 1e-4, 19 from
+/// the primal–dual start at 1e-6, 14 at 1e-8 (the same meshes and optima:
+/// 34 % less time in all) and 11 at 1e-9 (no faster in all, and one state
+/// took another mesh path).
+pub const WARM_PD_MU: f64 = 1e-8;
 
 /// A place where the mesh wants a break: a switch of T or χ between its
 /// bounds, or the entry or exit of an arc on a bound.
