@@ -87,6 +87,8 @@ def main():
                 "max_error": passes[-1]["max_relative_error"] if passes else float("nan"),
                 "landing_m": pos,
                 "landing_mps": vel,
+                "mass_error_kg": (refined.get("propagation") or {}).get("mass_error_kg", float("nan")),
+                "pass_iterations": ";".join(str(p["iterations"]) for p in passes),
                 "mf_kg": refined.get("final_mass_kg", float("nan")),
                 "ref_status": ref.get("status"),
                 "ref_mf_kg": ref.get("final_mass_kg", float("nan")),
@@ -120,6 +122,11 @@ def summarize(rows, tol):
           + ", ".join(f"{s} {sum(r['stop'] == s for r in rows)}" for s in sorted({str(r['stop']) for r in rows})))
     print(f"landing <= 0.1 m and <= 0.05 m/s: {len(lands)}/{n}; worst {max(r['landing_m'] for r in rows):.4f} m, "
           f"{max(r['landing_mps'] for r in rows):.4f} m/s (single N = 20: worst {max(r['single_landing_m'] for r in rows):.2f} m)")
+    me = sorted(abs(r["mass_error_kg"]) for r in rows)
+    print(f"re-integrated minus optimized final mass: median |.| {statistics.median(me):.3f} kg, worst {me[-1]:.3f} kg")
+    warm = [int(x) for r in rows for x in r["pass_iterations"].split(";")[1:] if x]
+    if warm:
+        print(f"interior-point iterations per warm pass: median {statistics.median(warm)}, max {max(warm)}")
     print(f"points: max {max(r['nodes'] or 0 for r in rows)}, median {statistics.median(r['nodes'] or 0 for r in rows)}; "
           f"passes: median {statistics.median(r['passes'] for r in rows)}, max {max(r['passes'] for r in rows)}")
     print(f"final mass within 1 kg of the reference: {len(within)}/{n}; worst {max(abs(r['gap_kg']) for r in rows):.3f} kg "
