@@ -134,7 +134,8 @@ pub fn solve(
 /// One pass on `to`'s mesh, warm from `prev` (an answer on another mesh)
 /// with the direct method: primal–dual from the multipliers of `prev`'s NLP
 /// when it has them, at μ_0 = [`WARM_PD_MU`]; primal only at
-/// [`direct::WARM_MU`] otherwise. SCvx solves each pass cold.
+/// [`direct::WARM_MU`] otherwise, or when the primal–dual start fails. SCvx
+/// solves each pass cold.
 fn solve_warm(
     prev: &Solution,
     prev_duals: Option<&(Nlp, direct::Duals)>,
@@ -148,16 +149,24 @@ fn solve_warm(
             let nlp = Nlp::new(to, settings);
             let w0 = nlp.interpolate_from(prev);
             let mut warm = settings.clone();
-            let (sol, duals) = match prev_duals {
-                Some((from, duals)) => {
-                    let duals = nlp.interpolate_duals_from(from, duals);
-                    warm.direct.mu_init = WARM_PD_MU;
-                    let start = direct::Start::PrimalDual(&w0, &duals);
-                    direct::solve_from_start(to, &warm, &nlp, start, observer)
-                }
-                _ => {
+            let primal_dual = prev_duals.map(|(from, duals)| {
+                let duals = nlp.interpolate_duals_from(from, duals);
+                warm.direct.mu_init = WARM_PD_MU;
+                let start = direct::Start::PrimalDual(&w0, &duals);
+                direct::solve_from_start(to, &warm, &nlp, start, observer)
+            });
+            let (sol, duals) = match primal_dual {
+                Some((sol, duals)) if sol.status == Status::Solved => (sol, duals),
+                tried => {
+                    // The primal start, with the failed attempt's work counted.
                     warm.direct.mu_init = direct::WARM_MU;
-                    direct::solve_from_keeping_duals(to, &warm, &nlp, &w0, None, observer)
+                    let (mut sol, duals) =
+                        direct::solve_from_keeping_duals(to, &warm, &nlp, &w0, None, observer);
+                    if let Some((failed, _)) = tried {
+                        sol.iterations += failed.iterations;
+                        sol.solve_time_ms += failed.solve_time_ms;
+                    }
+                    (sol, duals)
                 }
             };
             (sol, Some((nlp, duals)))
