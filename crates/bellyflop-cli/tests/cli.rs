@@ -43,10 +43,15 @@ fn json_has_the_documented_fields() {
     let burnt = m[0].as_f64().unwrap() - m[20].as_f64().unwrap();
     assert!((fuel - burnt).abs() < 1e-6);
     // The mesh error: one interval on the global mesh, its span [0, t_f].
+    // It integrates the thrust as flown (bang-bang across the switch at
+    // 6 s, control_profile), against which the single degree-20 state
+    // polynomial is some 10 % off in Vx (9.9e-2 measured; the same controls
+    // re-integrated miss the pad by 3.7 m): an estimate of that order, not
+    // the 2.3e-3 of the ringing, unflyable thrust polynomial.
     let intervals = v["mesh"]["intervals"].as_array().expect("mesh.intervals");
     assert_eq!(intervals.len(), 1);
     let e = intervals[0]["relative_error"].as_f64().unwrap();
-    assert!(e > 0.0 && e < 1e-2, "{e}");
+    assert!(e > 1e-2 && e < 1.0, "{e}");
     assert_eq!(v["mesh"]["max_relative_error"].as_f64().unwrap(), e);
     assert_eq!(intervals[0]["points"], 20);
     assert_eq!(intervals[0]["t_start_s"].as_f64().unwrap(), 0.0);
