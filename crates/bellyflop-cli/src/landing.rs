@@ -49,7 +49,7 @@ pub fn print_summary(p: &Result<Propagation, IntegrationError>, optimized_mass_k
             let o = &p.options;
             let controls = match o.controls {
                 bellyflop::propagate::ControlSource::Collocation => {
-                    "the collocation's control polynomials per interval".to_string()
+                    "the collocation's controls as flown, per interval".to_string()
                 }
                 _ => format!("{} controls", o.interpolation.as_str()),
             };
