@@ -203,10 +203,13 @@ def refined_section(ours, reference, cmd, tolerance):
         PAPER_GPOPS_TABLE3["tf_s"], PAPER_GPOPS_TABLE3["final_mass_kg"], PAPER_GPOPS[20][0], PAPER_GPOPS[20][1]))
     L.append("| GPOPS-II, paper (P2, N = 40) | — | — | %.5g | %.5g | — | — |" % PAPER_TABLE2[40]["P2"])
     L.append("")
-    L.append("Ours re-integrates its refined controls with `%s` (the collocation's own polynomials, interval by "
-             "interval); the reference re-integrates its own answer with linear interpolation, so its landing "
-             "columns measure that interpolation as much as the solution. Our time counts every pass and its "
-             "error estimate; the reference's is one solve on the final mesh." % ours["controls"])
+    L.append("Ours re-integrates its refined controls with `%s` (the collocation's own controls as they can be "
+             "flown, interval by interval: held on a bound over each point's quadrature cell, bang-bang inside the "
+             "cell of a switch, the polynomial through each run of interior points; `control_profile.rs`); the "
+             "reference re-integrates its own answer with linear interpolation through the nodes, so its landing "
+             "columns measure that interpolation as much as the solution (the two optima agree to the kilogram's "
+             "fraction above). Our time counts every pass and its error estimate; the reference's is one solve on "
+             "the final mesh." % ours["controls"])
     L.append("")
     return L
 
