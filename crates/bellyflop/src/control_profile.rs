@@ -237,6 +237,19 @@ impl Profile {
         }
     }
 
+    /// The stops of an integration from t0 to t1 across `profiles`: t0,
+    /// their jumps inside (t0, t1) in order, t1. An integrator that steps
+    /// from stop to stop never steps across a jump of the controls.
+    pub fn stops(t0: f64, t1: f64, profiles: &[&Profile], out: &mut Vec<f64>) {
+        out.clear();
+        out.push(t0);
+        for p in profiles {
+            p.jumps_in(t0, t1, out);
+        }
+        out[1..].sort_by(f64::total_cmp);
+        out.push(t1);
+    }
+
     /// ∫ profile dt over the mesh's span, by the cells (exact for holds and
     /// switches; Gauss–Legendre on the polynomial cells): a test's measure
     /// of the impulse it keeps.

@@ -831,6 +831,7 @@ pub fn integrate_controls(
             Profile::new(c.t_s, &points, c.gimbal_rate_radps, -r, r),
         )
     });
+    let jumping: Vec<&Profile> = profiles.iter().flat_map(|(t, chi)| [t, chi]).collect();
     let mut stops = Vec::new();
     let piece_of: Vec<usize> = pieces
         .iter()
@@ -886,14 +887,7 @@ pub fn integrate_controls(
         };
         // Stop at the profiles' jumps inside the node interval, instead of
         // letting the step-size control find them.
-        stops.clear();
-        stops.push(c.t_s[k]);
-        if let Some((thrust, chi)) = &profiles {
-            thrust.jumps_in(c.t_s[k], c.t_s[k + 1], &mut stops);
-            chi.jumps_in(c.t_s[k], c.t_s[k + 1], &mut stops);
-            stops[1..].sort_by(f64::total_cmp);
-        }
-        stops.push(c.t_s[k + 1]);
+        Profile::stops(c.t_s[k], c.t_s[k + 1], &jumping, &mut stops);
         for span in stops.windows(2) {
             if span[1] <= span[0] {
                 continue;
