@@ -369,19 +369,7 @@ fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, t
         ),
     }
     if let Some(r) = &s.refinement {
-        let stop = match r.stop {
-            bellyflop::refine::Stop::ToleranceMet => "tolerance met",
-            bellyflop::refine::Stop::PointLimit => {
-                "stopped: the next mesh would exceed solver.refinement.max_total_points"
-            }
-            bellyflop::refine::Stop::PassLimit => "stopped: solver.refinement.max_passes reached",
-            bellyflop::refine::Stop::SolveFailed => {
-                "stopped: a pass did not solve; the last solved pass is returned"
-            }
-            bellyflop::refine::Stop::EstimateFailed => {
-                "stopped: the mesh error could not be estimated"
-            }
-        };
+        let stop = r.stop.describe();
         let last = r.passes.last().map_or(f64::NAN, |p| p.max_relative_error);
         println!(
             "refinement    {} passes to a tolerance of {:.0e}, max error {last:.1e}: {stop}",

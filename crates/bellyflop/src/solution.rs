@@ -422,6 +422,21 @@ pub enum Stop {
     EstimateFailed,
 }
 
+impl Stop {
+    /// Why refinement stopped, in the settings' words.
+    pub fn describe(&self) -> &'static str {
+        match self {
+            Stop::ToleranceMet => "tolerance met",
+            Stop::PointLimit => {
+                "stopped: the next mesh would exceed solver.refinement.max_total_points"
+            }
+            Stop::PassLimit => "stopped: solver.refinement.max_passes reached",
+            Stop::SolveFailed => "stopped: a pass did not solve; the last solved pass is returned",
+            Stop::EstimateFailed => "stopped: the mesh error could not be estimated",
+        }
+    }
+}
+
 /// The record of a refinement, carried by its [`Solution`] ([`crate::refine`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Refinement {
