@@ -3,7 +3,9 @@
 (after Agamawi, Hager & Rao 2019), solved by CasADi + IPOPT, as evidence for
 what bellyflop's refinement would gain from it before building it.
 
-1. The structure is read off bellyflop's 20 x 8 answer of the state: runs
+1. The structure is read off bellyflop's 20 x 8 answer of the state
+   (`--source fine`; or its refined answer, `refined`, or the N = 20 one,
+   `single`): runs
    of the collocation points on a bound of T and of chi, and of the nodes on
    a limit of delta. A single point off the bounds between runs on opposite
    bounds is a switch, not an arc. The runs' ends, merged within MERGE_S,
@@ -195,12 +197,20 @@ def solve(sc, fine, edges, segs):
     return st["return_status"], st["iter_count"], float(x[N * nx + 6] * sc.x0[6]), breaks, pts
 
 
-def one(index):
+SOURCES = {
+    "fine": ["--intervals", "20", "--nodes", "160"],
+    "refined": ["--mesh-tolerance", "1e-6"],
+    "single": [],
+}
+
+
+def one(index, source):
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "state.toml"
         path.write_text(scenario_text(list(states(index + 1, 0, 15))[index][1], 20))
         sc = R.load_scenario(str(path))
-        fine = cli(["--scenario", str(path), "--intervals", "20", "--nodes", "160"])
+        fine = cli(["--scenario", str(path), *SOURCES[source]])
+        reference = fine if source == "fine" else cli(["--scenario", str(path), *SOURCES["fine"]])
         edges, segs = structure(sc, fine)
         status, iters, mf, breaks, pts = solve(sc, fine, edges, segs)
         text = path.read_text()
@@ -213,7 +223,7 @@ def one(index):
         le = ours["landing_error"]
         err = ours["refinement"]["passes"][0]["max_relative_error"]
         print(f"state {index}: {len(edges) - 2} events, {sum(pts)} points over {len(pts)} intervals; "
-              f"IPOPT {status} in {iters} iterations, m_f {mf - fine['final_mass_kg']:+.3f} kg against the 20 x 8 answer; "
+              f"IPOPT {status} in {iters} iterations, m_f {mf - reference['final_mass_kg']:+.3f} kg against the 20 x 8 answer; "
               f"bellyflop on its breaks: {ours['status']}, largest interval error {err:.1e}, "
               f"lands {le['position_m']:.3f} m and {le['velocity_mps']:.3f} m/s", flush=True)
         return le["position_m"] <= 0.1 and le["velocity_mps"] <= 0.05, sum(pts), err
@@ -223,13 +233,16 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--state", type=int)
     ap.add_argument("--states", default="0-9", help="a range FIRST-LAST of the box states")
+    ap.add_argument("--source", choices=list(SOURCES), default="fine",
+                    help="the answer the structure is read off: the 20 x 8 mesh, bellyflop's refined "
+                         "answer (--mesh-tolerance 1e-6), or the scenario's N = 20 mesh")
     args = ap.parse_args()
     if args.state is not None:
         chosen = [args.state]
     else:
         a, b = (int(x) for x in args.states.split("-"))
         chosen = list(range(a, b + 1))
-    results = [one(i) for i in chosen]
+    results = [one(i, args.source) for i in chosen]
     print(f"landed within 0.1 m and 0.05 m/s: {sum(r[0] for r in results)} of {len(results)}; "
           f"points: median {sorted(r[1] for r in results)[len(results) // 2]}, max {max(r[1] for r in results)}; "
           f"largest interval error: median {sorted(r[2] for r in results)[len(results) // 2]:.1e}")
