@@ -249,39 +249,41 @@ impl Profile {
         out[1..].sort_by(f64::total_cmp);
         out.push(t1);
     }
-
-    /// ∫ profile dt over the mesh's span, by the cells (exact for holds and
-    /// switches; Gauss–Legendre on the polynomial cells): a test's measure
-    /// of the impulse it keeps.
-    pub fn integral(&self) -> f64 {
-        let gl = Lgr::new(8);
-        let mut sum = 0.0;
-        for i in 0..self.pieces.len() {
-            let a = self.cell_start_s[i];
-            let b = self.cell_start_s.get(i + 1).copied().unwrap_or(self.end_s);
-            sum += match self.pieces[i] {
-                Piece::Hold(v) => v * (b - a),
-                Piece::Switch {
-                    at_s,
-                    before,
-                    after,
-                } => before * (at_s - a) + after * (b - at_s),
-                Piece::Polynomial(_) => gl
-                    .nodes
-                    .iter()
-                    .take(gl.n)
-                    .zip(&gl.weights)
-                    .map(|(&r, &w)| 0.5 * (b - a) * w * self.at(a + 0.5 * (b - a) * (r + 1.0)))
-                    .sum(),
-            };
-        }
-        sum
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    impl Profile {
+        /// ∫ profile dt over the mesh's span, by the cells (exact for holds and
+        /// switches; 8-point LGR on the polynomial cells): the impulse the
+        /// profile keeps.
+        fn integral(&self) -> f64 {
+            let gl = Lgr::new(8);
+            let mut sum = 0.0;
+            for i in 0..self.pieces.len() {
+                let a = self.cell_start_s[i];
+                let b = self.cell_start_s.get(i + 1).copied().unwrap_or(self.end_s);
+                sum += match self.pieces[i] {
+                    Piece::Hold(v) => v * (b - a),
+                    Piece::Switch {
+                        at_s,
+                        before,
+                        after,
+                    } => before * (at_s - a) + after * (b - at_s),
+                    Piece::Polynomial(_) => gl
+                        .nodes
+                        .iter()
+                        .take(gl.n)
+                        .zip(&gl.weights)
+                        .map(|(&r, &w)| 0.5 * (b - a) * w * self.at(a + 0.5 * (b - a) * (r + 1.0)))
+                        .sum(),
+                };
+            }
+            sum
+        }
+    }
 
     /// Node times of a uniform hp mesh on [0, tf].
     fn times(points: &[usize], tf: f64) -> Vec<f64> {

@@ -24,6 +24,7 @@
 use std::time::Instant;
 
 use crate::kkt::{Inertia, KktMatrix, KktSolver};
+pub use crate::nlp::Duals;
 use crate::nlp::{Nlp, PointDerivatives, NL, NS};
 use crate::observer::Observer;
 use crate::settings::SolverSettings;
@@ -33,15 +34,6 @@ use crate::solution::Status;
 
 /// μ_0 of the fine solve after a coarse start, and of warm starts.
 pub const WARM_MU: f64 = 1e-4;
-
-/// The multipliers of an iterate (scaled units): λ of the defects, and z_L,
-/// z_U of the lower and upper bounds (zero where a variable has none).
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Duals {
-    pub lambda: Vec<f64>,
-    pub zl: Vec<f64>,
-    pub zu: Vec<f64>,
-}
 
 /// The answer of [`solve_nlp`]: the last iterate (scaled) and how it ended.
 #[derive(Debug, Clone)]
@@ -234,7 +226,7 @@ pub fn solve_nlp(
     settings: &DirectSettings,
     observer: &mut dyn Observer,
 ) -> NlpResult {
-    Driver::new(nlp, settings).run(w0, lambda0, None, observer)
+    Driver::new(nlp, settings).run(Start::Primal(w0, lambda0), observer)
 }
 
 /// Solve P2 from a primal–dual point: `w0` pushed only [`WARM_BOUND_PUSH`]
@@ -250,7 +242,7 @@ pub fn solve_nlp_warm(
     settings: &DirectSettings,
     observer: &mut dyn Observer,
 ) -> NlpResult {
-    Driver::new(nlp, settings).run(w0, Some(&duals.lambda), Some(duals), observer)
+    Driver::new(nlp, settings).run(Start::PrimalDual(w0, duals), observer)
 }
 
 /// Filter entries (θ, φ) (§2.3).
@@ -642,15 +634,13 @@ impl<'a> Driver<'a> {
         it.lambda.iter_mut().for_each(|v| *v = 0.0);
     }
 
-    fn run(
-        mut self,
-        w0: &[f64],
-        lambda0: Option<&[f64]>,
-        warm: Option<&Duals>,
-        observer: &mut dyn Observer,
-    ) -> NlpResult {
+    fn run(mut self, start: Start, observer: &mut dyn Observer) -> NlpResult {
         let nlp = self.nlp;
         let (nv, nc) = (nlp.n_var(), nlp.n_con());
+        let (w0, lambda0, warm) = match start {
+            Start::Primal(w0, lambda0) => (w0, lambda0, None),
+            Start::PrimalDual(w0, duals) => (w0, Some(&duals.lambda[..]), Some(duals)),
+        };
         let mut w = w0.to_vec();
         let push = if warm.is_some() {
             WARM_BOUND_PUSH
@@ -1247,7 +1237,8 @@ pub fn solve_keeping_duals(
     let w0 = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
     let coarse_n = settings.direct.coarse_nodes;
     if coarse_n < 4 || 2 * coarse_n > d.nodes {
-        let (sol, duals) = solve_from_keeping_duals(scenario, settings, &nlp, &w0, None, observer);
+        let (sol, duals) =
+            solve_from_start(scenario, settings, &nlp, Start::Primal(&w0, None), observer);
         return (sol, nlp, duals);
     }
     // Every phase's iterations and time are counted in the answer.
@@ -1273,7 +1264,7 @@ pub fn solve_keeping_duals(
         let mut fine = budget.clone();
         fine.direct.mu_init = WARM_MU;
         let (mut sol, duals) =
-            solve_from_keeping_duals(scenario, &fine, &nlp, &warm, None, observer);
+            solve_from_start(scenario, &fine, &nlp, Start::Primal(&warm, None), observer);
         spent.append(&mut sol.direct_history);
         if sol.status == Status::Solved {
             return (with_phases(sol, spent, start), nlp, duals);
@@ -1283,15 +1274,21 @@ pub fn solve_keeping_duals(
     if budget.direct.max_iterations == 0 {
         // The limit was spent on the coarse phase: its last iterate, carried
         // onto the scenario's mesh, not iterated there.
-        let (mut sol, duals) =
-            solve_from_keeping_duals(scenario, &budget, &nlp, &warm, None, observer);
+        let (mut sol, duals) = solve_from_start(
+            scenario,
+            &budget,
+            &nlp,
+            Start::Primal(&warm, None),
+            observer,
+        );
         sol.status = Status::NotConverged;
         sol.message = format!(
             "no convergence in {max_iterations} interior-point iterations (coarse start included); the last iterate is returned"
         );
         return (with_phases(sol, spent, start), nlp, duals);
     }
-    let (mut sol, duals) = solve_from_keeping_duals(scenario, &budget, &nlp, &w0, None, observer);
+    let (mut sol, duals) =
+        solve_from_start(scenario, &budget, &nlp, Start::Primal(&w0, None), observer);
     let mut own = std::mem::take(&mut sol.direct_history);
     spent.append(&mut own);
     (with_phases(sol, spent, start), nlp, duals)
@@ -1349,25 +1346,6 @@ pub fn solve_from(
     lambda0: Option<&[f64]>,
     observer: &mut dyn Observer,
 ) -> crate::Solution {
-    solve_from_keeping_duals(scenario, settings, nlp, w0, lambda0, observer).0
-}
-
-/// Where a solve starts: a primal point, with the defect multipliers or
-/// with all the multipliers ([`solve_nlp_warm`]).
-pub enum Start<'a> {
-    Primal(&'a [f64], Option<&'a [f64]>),
-    PrimalDual(&'a [f64], &'a Duals),
-}
-
-/// [`solve_from`], and the multipliers of the answer.
-pub fn solve_from_keeping_duals(
-    scenario: &crate::Scenario,
-    settings: &SolverSettings,
-    nlp: &Nlp,
-    w0: &[f64],
-    lambda0: Option<&[f64]>,
-    observer: &mut dyn Observer,
-) -> (crate::Solution, Duals) {
     solve_from_start(
         scenario,
         settings,
@@ -1375,6 +1353,15 @@ pub fn solve_from_keeping_duals(
         Start::Primal(w0, lambda0),
         observer,
     )
+    .0
+}
+
+/// Where a solve starts: a primal point, with the defect multipliers or
+/// without ([`solve_nlp`]), or a primal–dual point ([`solve_nlp_warm`]).
+#[derive(Debug, Clone, Copy)]
+pub enum Start<'a> {
+    Primal(&'a [f64], Option<&'a [f64]>),
+    PrimalDual(&'a [f64], &'a Duals),
 }
 
 /// Solve from `start`, and report the answer as a [`crate::Solution`] with
@@ -1387,10 +1374,7 @@ pub fn solve_from_start(
     observer: &mut dyn Observer,
 ) -> (crate::Solution, Duals) {
     let start = Instant::now();
-    let r = match start_point {
-        Start::Primal(w0, lambda0) => solve_nlp(nlp, w0, lambda0, &settings.direct, observer),
-        Start::PrimalDual(w0, duals) => solve_nlp_warm(nlp, w0, duals, &settings.direct, observer),
-    };
+    let r = Driver::new(nlp, &settings.direct).run(start_point, observer);
     let ms = start.elapsed().as_secs_f64() * 1e3;
     let exact = SolverSettings {
         formulation: crate::Formulation::Exact,

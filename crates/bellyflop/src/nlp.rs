@@ -66,6 +66,15 @@ const ACTIVE: [usize; 6] = [
 /// Bounds on t_f \[s\], as in the IPOPT reference.
 pub const TF_BOUNDS_S: (f64, f64) = (1.0, 100.0);
 
+/// The multipliers of an iterate (scaled units): λ of the defects, and z_L,
+/// z_U of the lower and upper bounds (zero where a variable has none).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Duals {
+    pub lambda: Vec<f64>,
+    pub zl: Vec<f64>,
+    pub zu: Vec<f64>,
+}
+
 /// Derivatives of the dynamics at one collocation point, in scaled units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PointDerivatives {
@@ -607,11 +616,7 @@ impl Nlp {
     /// (multipliers of bounds switch on and off with their arcs, where a
     /// polynomial would ring) and multiplied by this mesh's weights; t̂_f's
     /// bound multipliers are copied.
-    pub fn interpolate_duals_from(
-        &self,
-        from: &Nlp,
-        duals: &crate::direct::Duals,
-    ) -> crate::direct::Duals {
+    pub fn interpolate_duals_from(&self, from: &Nlp, duals: &Duals) -> Duals {
         let weight = |nlp: &Nlp, k: usize| nlp.mesh.weights[k.min(nlp.n - 1)];
         let carry = |values: &dyn Fn(usize) -> f64, count: usize, to: usize| -> Vec<f64> {
             let xs = &from.mesh.nodes[..count];
@@ -640,7 +645,7 @@ impl Nlp {
         };
         let zl = bound(&duals.zl);
         let zu = bound(&duals.zu);
-        crate::direct::Duals { lambda, zl, zu }
+        Duals { lambda, zl, zu }
     }
 
     /// Node k of the scaled vector from P2's physical state (mass in kg)
@@ -803,7 +808,7 @@ mod tests {
     fn duals_carried_onto_a_mesh_keep_their_densities() {
         let from = nlp();
         let nv = from.n_var();
-        let duals = crate::direct::Duals {
+        let duals = Duals {
             lambda: (0..from.n_con()).map(|j| (j as f64 * 0.37).sin()).collect(),
             zl: (0..nv).map(|j| 1.0 + (j as f64 * 0.11).cos()).collect(),
             zu: (0..nv).map(|j| 2.0 + (j as f64 * 0.23).sin()).collect(),

@@ -160,8 +160,9 @@ fn solve_warm(
                 tried => {
                     // The primal start, with the failed attempt's work counted.
                     warm.direct.mu_init = direct::WARM_MU;
+                    let start = direct::Start::Primal(&w0, None);
                     let (mut sol, duals) =
-                        direct::solve_from_keeping_duals(to, &warm, &nlp, &w0, None, observer);
+                        direct::solve_from_start(to, &warm, &nlp, start, observer);
                     if let Some((failed, _)) = tried {
                         sol.iterations += failed.iterations;
                         sol.solve_time_ms += failed.solve_time_ms;
