@@ -1,7 +1,7 @@
 //! Landing precision of a solution: re-propagation through the library, and
 //! its summary lines and JSON fields.
 
-use bellyflop::propagate::{IntegrationError, Interpolation, Propagation};
+use bellyflop::verify::propagate::{IntegrationError, Interpolation, Propagation};
 use bellyflop::{Scenario, Solution};
 use clap::ValueEnum;
 use serde_json::Value;
@@ -31,7 +31,7 @@ pub fn propagate(
     solution: &Solution,
     interpolation: InterpolationArg,
 ) -> Result<Propagation, IntegrationError> {
-    bellyflop::report::propagate(scenario, solution, interpolation.into())
+    bellyflop::output::report::propagate(scenario, solution, interpolation.into())
 }
 
 /// The summary lines of `bellyflop solve`.
@@ -48,7 +48,7 @@ pub fn print_summary(p: &Result<Propagation, IntegrationError>, optimized_mass_k
             );
             let o = &p.options;
             let controls = match o.controls {
-                bellyflop::propagate::ControlSource::Collocation => {
+                bellyflop::verify::propagate::ControlSource::Collocation => {
                     "the collocation's controls as flown, per interval".to_string()
                 }
                 _ => format!("{} controls", o.interpolation.as_str()),
@@ -65,9 +65,9 @@ pub fn print_summary(p: &Result<Propagation, IntegrationError>, optimized_mass_k
     }
 }
 
-pub use bellyflop::report::{landing_error_json, propagation_json};
+pub use bellyflop::output::report::{landing_error_json, propagation_json};
 
 /// Add `landing_error` and `propagation` to the JSON of a solution.
 pub fn add_to_json(v: &mut Value, p: &Result<Propagation, IntegrationError>) {
-    bellyflop::report::add_landing_json(v, p);
+    bellyflop::output::report::add_landing_json(v, p);
 }

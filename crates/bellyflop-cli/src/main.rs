@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use bellyflop::direct::DirectIteration;
+use bellyflop::method::direct::DirectIteration;
 use bellyflop::solution::IterationRecord;
 use bellyflop::{Case, Formulation, Method, Scenario, Solution, SolverSettings};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -192,7 +192,7 @@ fn solve(args: SolveArgs) -> ExitCode {
         v["solve_time_max_ms"] = times_ms[times_ms.len() - 1].into();
     }
     landing::add_to_json(&mut v, &propagation);
-    bellyflop::report::add_mesh_json(&mut v, &scenario, &solution);
+    bellyflop::output::report::add_mesh_json(&mut v, &scenario, &solution);
     if args.json {
         println!("{v}");
     } else {

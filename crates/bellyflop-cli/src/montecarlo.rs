@@ -10,8 +10,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-pub use bellyflop::campaign::RunRow;
-use bellyflop::campaign::{fly_row, runs_csv, summary};
+pub use bellyflop::output::campaign::RunRow;
+use bellyflop::output::campaign::{fly_row, runs_csv, summary};
 use bellyflop::sim::RunOutcome;
 use bellyflop::Case;
 use indicatif::{ProgressBar, ProgressStyle};

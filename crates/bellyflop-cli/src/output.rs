@@ -3,7 +3,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use bellyflop::propagate::{Interpolant, Propagation};
+use bellyflop::verify::propagate::{Interpolant, Propagation};
 use bellyflop::{Scenario, Solution, SolverSettings};
 
 use crate::plot;

@@ -265,7 +265,7 @@ struct Pose {
 /// The body axis (engine → nose) is (−sin θ, cos θ): the thrust force
 /// T·(−sin(θ+δ), cos(θ+δ)) of the dynamics points along it when δ = 0. The
 /// exhaust leaves the nozzle the opposite way, (sin(θ+δ), −cos(θ+δ)).
-fn pose(v: &bellyflop::scenario::Vehicle, s: &Sample, flame_at_max_m: f64) -> Pose {
+fn pose(v: &bellyflop::input::scenario::Vehicle, s: &Sample, flame_at_max_m: f64) -> Pose {
     let (x, z) = (s.x, s.z);
     let a = (-s.theta.sin(), s.theta.cos());
     let n = (a.1, -a.0);
@@ -1340,7 +1340,8 @@ fn scvx_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
 fn direct_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
     let tol = d.settings.direct.tolerance;
     let h = &d.solution.direct_history;
-    let values = |f: fn(&bellyflop::direct::DirectIteration) -> f64| h.iter().map(f).collect();
+    let values =
+        |f: fn(&bellyflop::method::direct::DirectIteration) -> f64| h.iter().map(f).collect();
     let iterations = Iterations {
         x: h.iter().map(|r| r.iteration as f64).collect(),
         accepted: h.iter().map(|r| !r.restoration).collect(),

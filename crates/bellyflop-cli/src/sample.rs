@@ -9,7 +9,7 @@
 //! polynomials are what the collocation method represents; only the node
 //! values are optimized.
 
-use bellyflop::dynamics::{self, ix};
+use bellyflop::problem::dynamics::{self, ix};
 use bellyflop::Solution;
 
 /// A trajectory sampled in time, in SI units and radians.

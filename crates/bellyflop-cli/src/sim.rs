@@ -179,13 +179,13 @@ fn print_summary(f: &Flight, outcome: RunOutcome, seed: u64, run: u64) {
     }
 }
 
-pub use bellyflop::report::flight_json;
+pub use bellyflop::output::report::flight_json;
 
 /// The flown trajectory in the columns of `trajectory.csv`: the flight
-/// trace's columns ([`bellyflop::report::trace_columns`]) without the wind.
+/// trace's columns ([`bellyflop::output::report::trace_columns`]) without the wind.
 fn flown(f: &Flight) -> Dense {
     let [t, x, z, vx, vz, theta, w, m, delta, thrust, chi, _wind] =
-        bellyflop::report::trace_columns(f);
+        bellyflop::output::report::trace_columns(f);
     Dense::from_columns([t, x, z, vx, vz, theta, w, m, delta, thrust, chi])
 }
 
@@ -207,7 +207,7 @@ fn write(
         Some(&flown),
     )?;
 
-    let csv = bellyflop::report::trace_csv(f);
+    let csv = bellyflop::output::report::trace_csv(f);
     let path = dir.join("flight.csv");
     std::fs::write(&path, csv).map_err(|e| OutputError::io(&path, e))?;
     files.push(path);

@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use bellyflop::scvx::Silent;
+use bellyflop::method::scvx::Silent;
 use bellyflop::Status;
 use serde_json::{json, Value};
 
@@ -61,7 +61,7 @@ pub fn run(args: &SweepArgs) -> ExitCode {
             "scenario {}, {:?} formulation, landing error by DOP853 re-propagation with {} controls",
             base.scenario.name,
             base.solver.formulation,
-            bellyflop::propagate::Interpolation::from(args.interpolation).as_str()
+            bellyflop::verify::propagate::Interpolation::from(args.interpolation).as_str()
         );
         println!(
             "{:>4}  {:<13} {:>9} {:>11} {:>9} {:>10} {:>10} {:>11} {:>6} {:>9}",
@@ -99,7 +99,8 @@ pub fn run(args: &SweepArgs) -> ExitCode {
                 "propagation": landing::propagation_json(&prop),
             }));
         } else {
-            let cell = |f: &dyn Fn(&bellyflop::propagate::LandingError) -> f64| match &prop {
+            let cell = |f: &dyn Fn(&bellyflop::verify::propagate::LandingError) -> f64| match &prop
+            {
                 Ok(p) => format!("{:.4}", f(&p.landing_error)),
                 Err(_) => "-".into(),
             };
@@ -126,7 +127,7 @@ pub fn run(args: &SweepArgs) -> ExitCode {
         let out: Value = json!({
             "scenario": base.scenario.name,
             "formulation": base.solver.formulation,
-            "interpolation": bellyflop::propagate::Interpolation::from(args.interpolation),
+            "interpolation": bellyflop::verify::propagate::Interpolation::from(args.interpolation),
             "runs": runs,
         });
         println!("{out}");

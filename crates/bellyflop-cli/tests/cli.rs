@@ -7,7 +7,7 @@ fn write_scenario(name: &str, edit: impl Fn(&str) -> String) -> std::path::PathB
     let dir = std::env::temp_dir().join(format!("bellyflop-cli-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join(name);
-    std::fs::write(&path, edit(bellyflop::scenario::PAPER_TOML)).unwrap();
+    std::fs::write(&path, edit(bellyflop::input::scenario::PAPER_TOML)).unwrap();
     path
 }
 
@@ -164,7 +164,7 @@ fn toml_error_names_the_line_and_exits_2() {
     let (code, stdout, stderr) = bellyflop(&["solve", "--scenario", path.to_str().unwrap()]);
     assert_eq!(code, 2);
     assert!(stdout.is_empty());
-    let line = bellyflop::scenario::PAPER_TOML
+    let line = bellyflop::input::scenario::PAPER_TOML
         .lines()
         .position(|l| l.starts_with("isp_s"))
         .unwrap()

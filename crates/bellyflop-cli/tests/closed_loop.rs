@@ -142,7 +142,7 @@ fn crash_is_reported_and_exits_8() {
     let dir = tmp("crash");
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("low.toml");
-    let text = bellyflop::scenario::PAPER_TOML
+    let text = bellyflop::input::scenario::PAPER_TOML
         .replacen("z_m = 600.0", "z_m = 60.0", 1)
         .replacen("nodes = 20 ", "nodes = 6 ", 1)
         .replacen("max_iterations = 100", "max_iterations = 5", 1);

@@ -91,8 +91,12 @@ fn check_json(name: &str, json: &str) {
         std::fs::write(&file, serde_json::to_string_pretty(&got).unwrap() + "\n").unwrap();
         return;
     }
-    let text = std::fs::read_to_string(&file)
-        .unwrap_or_else(|e| panic!("{}: {e} (record with BELLYFLOP_RECORD_GOLDEN=1)", file.display()));
+    let text = std::fs::read_to_string(&file).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (record with BELLYFLOP_RECORD_GOLDEN=1)",
+            file.display()
+        )
+    });
     let want: Value = serde_json::from_str(&text).unwrap();
     if let Some(diff) = first_difference(&got, &want, name) {
         panic!("{name} changed (now against recorded): {diff}");
@@ -123,7 +127,11 @@ fn check_csv(name: &str, csv: &str) {
     for (i, (g, w)) in got.iter().zip(want.lines()).enumerate() {
         assert_eq!(g, w, "{name}.csv line {} changed", i + 1);
     }
-    assert_eq!(got.len(), want.lines().count(), "{name}.csv: row count changed");
+    assert_eq!(
+        got.len(),
+        want.lines().count(),
+        "{name}.csv: row count changed"
+    );
 }
 
 fn run_ok(args: &[&str]) -> String {
@@ -149,7 +157,10 @@ fn dispersed_scenario(dir: &Path) -> String {
     let text = paper
         .replace("x_m = 100.0", "x_m = 260.0")
         .replace("z_m = 600.0", "z_m = 720.0")
-        .replace("vx_mps = 0.0\nvz_mps = -85.0", "vx_mps = -6.0\nvz_mps = -78.0")
+        .replace(
+            "vx_mps = 0.0\nvz_mps = -85.0",
+            "vx_mps = -6.0\nvz_mps = -78.0",
+        )
         .replace("mass_kg = 120000.0", "mass_kg = 116000.0");
     assert_ne!(text, paper);
     let file = dir.join("dispersed.toml");
@@ -224,7 +235,10 @@ fn sweep() {
 
 #[test]
 fn sim_direct_replans() {
-    check_json("sim_direct", &run_ok(&["sim", "--json", "--seed", "3", "--run", "2"]));
+    check_json(
+        "sim_direct",
+        &run_ok(&["sim", "--json", "--seed", "3", "--run", "2"]),
+    );
 }
 
 #[test]

@@ -1,20 +1,21 @@
 //! `bellyflop._bellyflop`: the native half of the Python package.
 //!
 //! Thin: every result is built by the core crate's own serialization
-//! (`bellyflop::report`, `bellyflop::campaign`), the same code the CLI
+//! (`bellyflop::output::report`, `bellyflop::output::campaign`), the same code the CLI
 //! prints with, and converted to Python objects here. Long calls release the
 //! GIL; a panic in the core becomes `bellyflop.InternalError`.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
-use bellyflop::campaign::{self, RunRow};
 use bellyflop::guidance::SimConfig as CoreSimConfig;
-use bellyflop::propagate::Interpolation;
+use bellyflop::output::campaign::{self, RunRow};
 use bellyflop::sim::RunOutcome;
+use bellyflop::verify::propagate::Interpolation;
 // The Python `Scenario` is a whole scenario file: the problem and its
 // `[solver]` settings (bellyflop::Case).
-use bellyflop::{report, Case as CoreScenario, Formulation, Method};
+use bellyflop::output::report;
+use bellyflop::{Case as CoreScenario, Formulation, Method};
 use numpy::PyArray1;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyAttributeError, PyKeyError, PyRuntimeError, PyValueError};
@@ -555,7 +556,7 @@ fn solve(
     s.validate().map_err(input_error)?;
     let (value, core_ms) = detached(py, move || {
         let start = Instant::now();
-        let solution = s.solve(&mut bellyflop::scvx::Silent);
+        let solution = s.solve(&mut bellyflop::method::scvx::Silent);
         let propagation = report::propagate(&s.scenario, &solution, interpolation);
         let v = report::solve_json(&s.scenario, &solution, &propagation);
         (v, start.elapsed().as_secs_f64() * 1e3)

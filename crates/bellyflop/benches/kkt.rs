@@ -20,10 +20,10 @@
 use std::hint::black_box;
 use std::time::Duration;
 
-use bellyflop::direct::{self, lagrangian_blocks, DirectSettings};
-use bellyflop::kkt::{KktMatrix, KktSolver};
-use bellyflop::nlp::{Nlp, NL, NS};
-use bellyflop::scvx::Silent;
+use bellyflop::method::direct::kkt::{KktMatrix, KktSolver};
+use bellyflop::method::direct::nlp::{Nlp, NL, NS};
+use bellyflop::method::direct::{self, lagrangian_blocks, DirectSettings};
+use bellyflop::method::scvx::Silent;
 use bellyflop::{Case, Method, Status};
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};

@@ -7,12 +7,12 @@
 use std::hint::black_box;
 use std::time::Duration;
 
-use bellyflop::dynamics::linearize;
-use bellyflop::radau::Lgr;
-use bellyflop::replan::{initial_state, Planner};
-use bellyflop::scvx::ConicSolver;
-use bellyflop::scvx::{straight_line, Silent};
-use bellyflop::transcription::Transcription;
+use bellyflop::collocation::radau::Lgr;
+use bellyflop::guidance::planner::{initial_state, Planner};
+use bellyflop::method::scvx::transcription::Transcription;
+use bellyflop::method::scvx::ConicSolver;
+use bellyflop::method::scvx::{straight_line, Silent};
+use bellyflop::problem::dynamics::linearize;
 use bellyflop::{Case, Formulation};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};
 
@@ -29,7 +29,13 @@ fn paper(n: usize) -> Case {
 /// The transcription of the first SCvx subproblem of a cold solve: the relaxed
 /// P4 (`Formulation::Paper`) without the ground bound, as `bellyflop::solve`
 /// builds it for its first phase.
-fn first_subproblem(n: usize) -> (Transcription, bellyflop::transcription::Trajectory, f64) {
+fn first_subproblem(
+    n: usize,
+) -> (
+    Transcription,
+    bellyflop::method::scvx::transcription::Trajectory,
+    f64,
+) {
     let mut s = paper(n);
     s.solver.formulation = Formulation::Paper;
     let tr = Transcription::new(&s.scenario, &s.solver).without_ground_bound();

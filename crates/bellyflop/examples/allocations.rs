@@ -11,10 +11,10 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 
-use bellyflop::direct::{self, DirectSettings};
-use bellyflop::nlp::Nlp;
-use bellyflop::replan::{initial_state, Planner};
-use bellyflop::scvx::Silent;
+use bellyflop::guidance::planner::{initial_state, Planner};
+use bellyflop::method::direct::nlp::Nlp;
+use bellyflop::method::direct::{self, DirectSettings};
+use bellyflop::method::scvx::Silent;
 use bellyflop::Case;
 
 struct Counting;

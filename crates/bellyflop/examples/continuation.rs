@@ -12,8 +12,8 @@
 
 use std::time::Instant;
 
-use bellyflop::replan::{Plan, Planner};
-use bellyflop::scvx::Silent;
+use bellyflop::guidance::planner::{Plan, Planner};
+use bellyflop::method::scvx::Silent;
 use bellyflop::{Case, Status};
 
 fn paper(n: usize) -> Case {

@@ -15,9 +15,9 @@
 
 use std::time::Instant;
 
-use bellyflop::dynamics::NX;
-use bellyflop::scvx::straight_line;
-use bellyflop::transcription::Transcription;
+use bellyflop::method::scvx::straight_line;
+use bellyflop::method::scvx::transcription::Transcription;
+use bellyflop::problem::dynamics::NX;
 use bellyflop::{Case, Formulation};
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettings};

@@ -8,8 +8,8 @@
 #[path = "../tests/common/labelled.rs"]
 mod labelled;
 
-use bellyflop::feasibility;
-use bellyflop::scvx::Silent;
+use bellyflop::method::scvx::Silent;
+use bellyflop::problem::feasibility;
 use bellyflop::Method;
 use labelled::*;
 
@@ -38,17 +38,20 @@ fn main() {
             let mut s = scenario(&e, method);
             s.scenario.discretization.nodes = nodes;
             let alone = match method {
-                Method::Direct => bellyflop::direct::solve(&s.scenario, &s.solver, &mut Silent),
-                Method::Scvx => bellyflop::scvx::solve(&s.scenario, &s.solver, &mut Silent),
+                Method::Direct => {
+                    bellyflop::method::direct::solve(&s.scenario, &s.solver, &mut Silent)
+                }
+                Method::Scvx => bellyflop::method::scvx::solve(&s.scenario, &s.solver, &mut Silent),
             };
-            let landing = bellyflop::propagate::propagate(&s.scenario, &alone, &Default::default())
-                .map(|p| {
-                    format!(
-                        "{:.2} m {:.2} m/s",
-                        p.landing_error.position_m, p.landing_error.velocity_mps
-                    )
-                })
-                .unwrap_or_else(|err| err.to_string());
+            let landing =
+                bellyflop::verify::propagate::propagate(&s.scenario, &alone, &Default::default())
+                    .map(|p| {
+                        format!(
+                            "{:.2} m {:.2} m/s",
+                            p.landing_error.position_m, p.landing_error.velocity_mps
+                        )
+                    })
+                    .unwrap_or_else(|err| err.to_string());
             println!(
                 "    {:<6} N = {nodes} alone: {}  landing {landing}",
                 method.as_str(),

@@ -14,11 +14,11 @@
 //!
 //! A first argument `paper` solves with the paper's formulation instead of the
 //! default one.
-use bellyflop::dynamics::Model;
-use bellyflop::propagate::{
+use bellyflop::method::scvx::Silent;
+use bellyflop::problem::dynamics::Model;
+use bellyflop::verify::propagate::{
     integrate_controls, landing_error, propagate, Controls, Interpolation, NozzleModel, Options,
 };
-use bellyflop::scvx::Silent;
 use bellyflop::Case;
 
 fn main() {

@@ -11,8 +11,8 @@
 //! mesh of M intervals. Timing lives in the criterion bench (`warm_replan`);
 //! these are single runs.
 
-use bellyflop::replan::{initial_state, Planner};
-use bellyflop::scvx::Silent;
+use bellyflop::guidance::planner::{initial_state, Planner};
+use bellyflop::method::scvx::Silent;
 use bellyflop::Case;
 
 fn main() {

@@ -2,8 +2,8 @@
 //! status and time of each warm re-plan (a diagnostic for the guidance loop).
 //!
 //! `cargo run --release -p bellyflop --example replan_along \[N\]`
-use bellyflop::replan::{initial_state, Planner};
-use bellyflop::scvx::Silent;
+use bellyflop::guidance::planner::{initial_state, Planner};
+use bellyflop::method::scvx::Silent;
 use bellyflop::Case;
 
 fn main() {

@@ -16,9 +16,9 @@
 //!   and only if it is `solved`, a message exactly when it is not `solved`,
 //!   and JSON that names its status and method;
 //! - a `solved` answer has a finite trajectory, stays above the ground
-//!   (within [`crate::scvx::GROUND_TOLERANCE_M`]), keeps every reported
+//!   (within [`crate::method::scvx::GROUND_TOLERANCE_M`]), keeps every reported
 //!   thrust within [T_min, T_max] (within
-//!   [`crate::scvx::THRUST_TOLERANCE_FRAC`] of T_max), and thrusts out of
+//!   [`crate::method::scvx::THRUST_TOLERANCE_FRAC`] of T_max), and thrusts out of
 //!   the nozzle.
 //!
 //! To keep each input cheap the iteration limits are capped ([`BUDGET`]): the
@@ -31,8 +31,8 @@
 
 use rand::Rng;
 
-use crate::error::{FileKind, InputError};
-use crate::scenario::{Case, Method, Scenario};
+use crate::input::error::{FileKind, InputError};
+use crate::input::scenario::{Case, Method, Scenario};
 use crate::solution::{Solution, Status};
 
 /// Iteration caps of [`exercise`]'s solves.
@@ -72,7 +72,8 @@ pub fn exercise(bytes: &[u8]) -> Outcome {
 
 /// [`exercise`] with other iteration caps.
 pub fn exercise_with(bytes: &[u8], budget: Budget) -> Outcome {
-    let text = match crate::error::decode_text(FileKind::Scenario, "<input>", bytes.to_vec()) {
+    let text = match crate::input::error::decode_text(FileKind::Scenario, "<input>", bytes.to_vec())
+    {
         Ok(text) => text,
         Err(e) => return rejected(e),
     };
@@ -95,7 +96,7 @@ pub fn exercise_with(bytes: &[u8], budget: Budget) -> Outcome {
     let mut answers = Vec::with_capacity(2);
     for method in [Method::Direct, Method::Scvx] {
         s.solver.method = method;
-        let sol = s.solve(&mut crate::scvx::Silent);
+        let sol = s.solve(&mut crate::method::scvx::Silent);
         check_answer(&s.scenario, method, &sol);
         answers.push((method, sol.status));
     }
@@ -163,13 +164,13 @@ fn check_answer(s: &Scenario, method: Method, sol: &Solution) {
         let c = &sol.checks;
         assert!(sol.trajectory.is_finite(), "solved, but not finite");
         assert!(
-            c.min_altitude_margin_m >= -crate::scvx::GROUND_TOLERANCE_M,
+            c.min_altitude_margin_m >= -crate::method::scvx::GROUND_TOLERANCE_M,
             "solved {} m below the ground",
             -c.min_altitude_margin_m
         );
         assert!(
             c.thrust_bound_violation_n
-                <= crate::scvx::THRUST_TOLERANCE_FRAC * s.vehicle.max_thrust_n,
+                <= crate::method::scvx::THRUST_TOLERANCE_FRAC * s.vehicle.max_thrust_n,
             "solved with the thrust {} N outside its bounds",
             c.thrust_bound_violation_n
         );
@@ -427,7 +428,7 @@ mod tests {
 
     #[test]
     fn the_paper_case_runs_both_methods() {
-        match exercise(crate::scenario::PAPER_TOML.as_bytes()) {
+        match exercise(crate::input::scenario::PAPER_TOML.as_bytes()) {
             Outcome::Ran(answers) => {
                 let methods: Vec<Method> = answers.iter().map(|a| a.0).collect();
                 assert_eq!(methods, [Method::Direct, Method::Scvx]);
@@ -448,7 +449,7 @@ mod tests {
 
     #[test]
     fn mutations_are_seeded_and_change_the_input() {
-        let paper = crate::scenario::PAPER_TOML.as_bytes();
+        let paper = crate::input::scenario::PAPER_TOML.as_bytes();
         let run = |seed| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
             (0..50)

@@ -4,7 +4,7 @@
 //! 2019).
 //!
 //! Each pass solves on a mesh, estimates the relative error e_k of every
-//! interval ([`crate::mesh_error`]) and stops when max_k e_k ≤ ε. Otherwise
+//! interval ([`crate::verify::mesh_error`]) and stops when max_k e_k ≤ ε. Otherwise
 //! the next mesh is built in two steps:
 //!
 //! 1. **p or h, per interval.** An interval with e_k > ε and n_k points
@@ -36,24 +36,24 @@
 //! ([`Nlp::interpolate_duals_from`]), at μ_0 = [`WARM_PD_MU`] (SCvx solves
 //! each pass cold).
 
-use crate::control_profile::{activity, Activity};
-use crate::direct;
-use crate::dynamics::Model;
-use crate::mesh::{Mesh, MeshLayout};
-use crate::mesh_error;
-use crate::nlp::Nlp;
-use crate::observer::Observer;
-use crate::scenario::Scenario;
-use crate::settings::{Method, RefinementSettings, SolverSettings};
+use crate::collocation::control_profile::{activity, Activity};
+use crate::collocation::mesh::{Mesh, MeshLayout};
+use crate::input::scenario::Scenario;
+use crate::input::settings::{Method, RefinementSettings, SolverSettings};
+use crate::method::direct;
+use crate::method::direct::nlp::Nlp;
+use crate::method::observer::Observer;
+use crate::problem::dynamics::Model;
 pub use crate::solution::{Pass, Refinement, Stop};
 use crate::solution::{Solution, Status};
+use crate::verify::mesh_error;
 
 /// Solve `scenario` and refine its mesh until every interval's relative
 /// error is at most `settings.refinement.tolerance` (which must be > 0).
 /// Returns the last accepted pass's answer, with its [`Refinement`] record;
 /// its iterations and time count every pass and estimate. Like
 /// [`crate::solve`]'s steps 1 and 2, it does not re-integrate the landing
-/// (the caller's [`crate::accuracy::check`] does).
+/// (the caller's [`crate::verify::accuracy::check`] does).
 pub fn solve(
     scenario: &Scenario,
     settings: &SolverSettings,
@@ -63,7 +63,8 @@ pub fn solve(
     let rs = &settings.refinement;
     let model = Model::new(&scenario.vehicle, &scenario.environment);
     let mut current = scenario.clone();
-    let (mut sol, mut duals) = crate::solve_on_mesh_keeping_duals(&current, settings, observer);
+    let (mut sol, mut duals) =
+        crate::pipeline::solve_on_mesh_keeping_duals(&current, settings, observer);
     let mut passes = Vec::new();
     let mut iterations = 0;
     let mut event_breaks: Vec<Event> = Vec::new();
@@ -144,7 +145,7 @@ fn solve_warm(
     observer: &mut dyn Observer,
 ) -> (Solution, Option<(Nlp, direct::Duals)>) {
     match settings.method {
-        Method::Scvx => (crate::solve_on_mesh(to, settings, observer), None),
+        Method::Scvx => (crate::pipeline::solve_on_mesh(to, settings, observer), None),
         Method::Direct => {
             let nlp = Nlp::new(to, settings);
             let w0 = nlp.interpolate_from(prev);
@@ -584,8 +585,11 @@ mod tests {
         let model = Model::new(&s.vehicle, &s.environment);
         let mesh = Mesh::global(6);
         let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
-        let mut sol =
-            crate::direct::solve(&s, &SolverSettings::default(), &mut crate::observer::Silent);
+        let mut sol = crate::method::direct::solve(
+            &s,
+            &SolverSettings::default(),
+            &mut crate::method::observer::Silent,
+        );
         sol.thrust_n = vec![lo, lo, lo + 0.25 * (hi - lo), hi, hi, hi, hi];
         sol.gimbal_rate_radps = vec![0.0; 7];
         sol.delta_rad = vec![0.0; 7];
@@ -611,7 +615,7 @@ mod tests {
         let mut sv = case.solver.clone();
         sv.refinement.tolerance = 1e-6;
         sv.refinement.max_passes = 3;
-        let sol = crate::solve(&case.scenario, &sv, &mut crate::observer::Silent);
+        let sol = crate::solve(&case.scenario, &sv, &mut crate::method::observer::Silent);
         assert_eq!(sol.status, Status::Solved, "{}", sol.message);
         let r = sol.refinement.as_ref().expect("refined");
         assert_eq!(r.passes.len(), 3);
@@ -635,7 +639,7 @@ mod tests {
             breaks.iter().any(|&x| (x - 6.0).abs() <= spacing),
             "no break within {spacing:.3} s of 6.0 s: {breaks:?}"
         );
-        let p = crate::propagate::propagate(&case.scenario, &sol, &Default::default())
+        let p = crate::verify::propagate::propagate(&case.scenario, &sol, &Default::default())
             .expect("propagates");
         let e = p.landing_error;
         assert!(

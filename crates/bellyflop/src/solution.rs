@@ -2,10 +2,10 @@
 
 use serde::Serialize;
 
-use crate::dynamics::{self, ix};
-use crate::mesh::{Mesh, MeshLayout};
-use crate::scenario::{Formulation, Method};
-use crate::transcription::{Trajectory, Transcription};
+use crate::collocation::mesh::{Mesh, MeshLayout};
+use crate::input::scenario::{Formulation, Method};
+use crate::method::scvx::transcription::{Trajectory, Transcription};
+use crate::problem::dynamics::{self, ix};
 
 /// How a solve ended. Each variant has its own exit code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -16,8 +16,8 @@ pub enum Status {
     /// Converged, but the relaxation is not tight or the thrust points backwards.
     NonPhysical,
     /// No trajectory exists. From [`crate::solve`] only with a certificate
-    /// ([`crate::feasibility`]), computed before solving. The methods on
-    /// their own ([`crate::scvx::solve`], [`crate::direct::solve`], the
+    /// ([`crate::problem::feasibility`]), computed before solving. The methods on
+    /// their own ([`crate::method::scvx::solve`], [`crate::method::direct::solve`], the
     /// closed loop's re-plans) also report a local infeasibility this way —
     /// a point that still needs virtual control, or a failed feasibility
     /// restoration — which [`crate::solve`] reports as `not_converged`.
@@ -28,7 +28,7 @@ pub enum Status {
     SolverFailed,
     /// Converged and passes the checks, but its controls, re-integrated,
     /// miss the target by more than the scenario's landing tolerances
-    /// ([`crate::accuracy`]; set by [`crate::solve`] only).
+    /// ([`crate::verify::accuracy`]; set by [`crate::solve`] only).
     Inaccurate,
 }
 
@@ -177,7 +177,7 @@ pub struct Solution {
     /// The mesh solved on: its breaks in τ and points per interval
     /// ([`Solution::mesh`] rebuilds it). In JSON `mesh_layout`, since the
     /// CLI's `mesh` key holds the per-interval error estimate
-    /// ([`crate::report::add_mesh_json`]).
+    /// ([`crate::output::report::add_mesh_json`]).
     #[serde(rename = "mesh_layout")]
     pub mesh: MeshLayout,
     pub tf_s: f64,
@@ -371,7 +371,7 @@ impl Solution {
     }
 }
 
-/// The relative error of a solution on one mesh interval ([`crate::mesh_error`]).
+/// The relative error of a solution on one mesh interval ([`crate::verify::mesh_error`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct IntervalError {
     /// Index of the interval, its collocation points n_k and its span \[s\].
@@ -379,7 +379,7 @@ pub struct IntervalError {
     pub points: usize,
     pub t_start_s: f64,
     pub t_end_s: f64,
-    /// e_k ([`crate::mesh_error`]), and the state where it is largest.
+    /// e_k ([`crate::verify::mesh_error`]), and the state where it is largest.
     pub relative_error: f64,
     pub worst_state: &'static str,
 }

@@ -2,8 +2,8 @@
 //! solved answer whose re-integrated landing error is beyond the scenario's
 //! tolerances is `inaccurate`, for both methods.
 
-use bellyflop::propagate::{propagate, Options};
-use bellyflop::scvx::Silent;
+use bellyflop::method::scvx::Silent;
+use bellyflop::verify::propagate::{propagate, Options};
 use bellyflop::{Case, Method, Solution, Status};
 
 fn paper(method: Method, edit: impl FnOnce(&mut Case)) -> (Case, Solution) {
@@ -81,11 +81,11 @@ fn the_methods_alone_are_unaffected() {
     let mut s = Case::paper();
     s.solver.landing_position_tolerance_m = 0.1;
     assert_eq!(
-        bellyflop::scvx::solve(&s.scenario, &s.solver, &mut Silent).status,
+        bellyflop::method::scvx::solve(&s.scenario, &s.solver, &mut Silent).status,
         Status::Solved
     );
     assert_eq!(
-        bellyflop::direct::solve(&s.scenario, &s.solver, &mut Silent).status,
+        bellyflop::method::direct::solve(&s.scenario, &s.solver, &mut Silent).status,
         Status::Solved
     );
 }

@@ -5,9 +5,9 @@
 //! bound, from `bench/reference/nlp_reference.py --scenario F --nodes N
 //! --problem P2 --ground [--intervals M]` (tol 1e-9), measured on 2026-12-01.
 
-use bellyflop::direct::{self, DirectSettings};
-use bellyflop::nlp::Nlp;
-use bellyflop::scvx::Silent;
+use bellyflop::method::direct::nlp::Nlp;
+use bellyflop::method::direct::{self, DirectSettings};
+use bellyflop::method::scvx::Silent;
 use bellyflop::{Case, Method, Solution, Status};
 
 fn direct_paper(edit: impl FnOnce(&mut Case)) -> Solution {
@@ -271,7 +271,7 @@ fn soft_margin_and_terminal_reach_the_scvx_optimum() {
     let d = direct_alone(soft);
     let mut s = Case::paper();
     soft(&mut s);
-    let c = bellyflop::scvx::solve(&s.scenario, &s.solver, &mut Silent);
+    let c = bellyflop::method::scvx::solve(&s.scenario, &s.solver, &mut Silent);
     assert_eq!(d.status, Status::Solved, "{}", d.message);
     assert_eq!(c.status, Status::Solved, "{}", c.message);
     assert!(

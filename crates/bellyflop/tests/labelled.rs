@@ -3,8 +3,8 @@
 //! bound), in `tests/data/labelled_states.toml`. No feasible state is
 //! labelled `infeasible` by `bellyflop::solve`, and every certified state is.
 
-use bellyflop::feasibility::{self, Certificate};
-use bellyflop::scvx::Silent;
+use bellyflop::method::scvx::Silent;
+use bellyflop::problem::feasibility::{self, Certificate};
 use bellyflop::{Method, Status};
 
 mod common;

@@ -2,8 +2,8 @@
 //! integrated through Eq. (1)–(3) with the optimized controls, lands within
 //! 2 m and 0.5 m/s of the target.
 
-use bellyflop::propagate::{propagate, Interpolation, Options, Propagation};
-use bellyflop::scvx::Silent;
+use bellyflop::method::scvx::Silent;
+use bellyflop::verify::propagate::{propagate, Interpolation, Options, Propagation};
 use bellyflop::{Case, Formulation, Status};
 
 const MAX_POSITION_M: f64 = 2.0;

@@ -1,6 +1,6 @@
 //! The core optimizer against the paper's numbers (issue 2, "Must show").
 
-use bellyflop::scvx::Silent;
+use bellyflop::method::scvx::Silent;
 use bellyflop::{Case, Formulation, Scenario, Solution, Status};
 
 /// Table 3, SCvx row.
@@ -11,7 +11,7 @@ fn solve_paper(edit: impl FnOnce(&mut Case)) -> Solution {
     let mut s = Case::paper();
     edit(&mut s);
     s.validate().expect("test scenario is valid");
-    bellyflop::scvx::solve(&s.scenario, &s.solver, &mut Silent)
+    bellyflop::method::scvx::solve(&s.scenario, &s.solver, &mut Silent)
 }
 
 /// A converged solution meets the nonlinear problem: no virtual control,
@@ -294,7 +294,7 @@ const GATE: [f64; 6] = [0.0, 3.0, 0.0, -2.0, 0.0, 0.0];
 /// Vz [m, m/s], θ \[deg\], w [deg/s], m \[kg\], δ \[deg\]) to the gate, in a wind
 /// [m/s], with the 20 % nozzle margin, on N = 10 points.
 fn replan_at(s: &mut Case, x: [f64; 8], wind_mps: f64) {
-    s.scenario.initial = bellyflop::scenario::InitialState {
+    s.scenario.initial = bellyflop::input::scenario::InitialState {
         x_m: x[0],
         z_m: x[1],
         vx_mps: x[2],
@@ -360,18 +360,18 @@ fn soft_terminal_lateral_returns_a_small_miss() {
 fn planned(
     n: usize,
 ) -> (
-    bellyflop::replan::Planner,
-    bellyflop::scenario::InitialState,
+    bellyflop::guidance::planner::Planner,
+    bellyflop::input::scenario::InitialState,
 ) {
     let mut s = Case::paper();
     s.scenario.discretization.nodes = n;
-    let mut planner = bellyflop::replan::Planner::new(s.scenario, s.solver);
+    let mut planner = bellyflop::guidance::planner::Planner::new(s.scenario, s.solver);
     // The SCvx warm re-plan (the scenario's default method is direct).
     planner.method = bellyflop::Method::Scvx;
     let cold = planner.cold(&mut Silent);
     assert_eq!(cold.status, Status::Solved, "cold N = {n}");
     let plan = planner.plan.as_ref().expect("a solved cold plan");
-    let state = bellyflop::replan::initial_state(&plan.state_at(0.5));
+    let state = bellyflop::guidance::planner::initial_state(&plan.state_at(0.5));
     (planner, state)
 }
 
@@ -400,7 +400,7 @@ fn warm_replan_converges_in_a_few_iterations() {
         let mut s2 = planner.scenario.clone();
         s2.initial = state;
         s2.discretization.tf_guess_s = tf_s - 0.5;
-        let direct = bellyflop::scvx::solve(&s2, &planner.settings, &mut Silent);
+        let direct = bellyflop::method::scvx::solve(&s2, &planner.settings, &mut Silent);
         assert_eq!(direct.status, Status::Solved, "{what}: direct");
         assert!(
             (warm.final_mass_kg - direct.final_mass_kg).abs() < 0.5,
@@ -436,15 +436,15 @@ fn warm_replan_counts_both_phases() {
 /// point meets the dynamics at least ten times better.
 #[test]
 fn second_order_correction_removes_the_linearization_error() {
-    use bellyflop::transcription::Transcription;
+    use bellyflop::method::scvx::transcription::Transcription;
     let mut s = Case::paper();
     s.solver.relaxed_first_iterations = 0;
-    let plan = bellyflop::scvx::solve(&s.scenario, &s.solver, &mut Silent);
+    let plan = bellyflop::method::scvx::solve(&s.scenario, &s.solver, &mut Silent);
     assert_eq!(plan.status, Status::Solved);
     let tr = Transcription::new(&s.scenario, &s.solver);
     let data = tr.assemble(&plan.trajectory, 0.05, 0.0);
     let sub = tr.solve(&data).expect("subproblem solves");
-    let max_defect = |t: &bellyflop::transcription::Trajectory| {
+    let max_defect = |t: &bellyflop::method::scvx::transcription::Trajectory| {
         tr.defects(t)
             .iter()
             .flatten()
@@ -520,7 +520,7 @@ fn micrometre_dip_below_the_pad_is_solved() {
         "no dip any more: {:?}",
         sol.checks
     );
-    assert!(sol.checks.min_altitude_margin_m >= -bellyflop::scvx::GROUND_TOLERANCE_M);
+    assert!(sol.checks.min_altitude_margin_m >= -bellyflop::method::scvx::GROUND_TOLERANCE_M);
     assert_feasible(&sol, "cp_m = 45");
 }
 
@@ -532,7 +532,7 @@ fn every_reported_thrust_is_within_its_bounds() {
     let sol = solve_paper(|s| s.scenario.vehicle.min_thrust_n = s.scenario.vehicle.max_thrust_n);
     assert_feasible(&sol, "T_min = T_max");
     let t_max = Scenario::paper().vehicle.max_thrust_n;
-    let tol = bellyflop::scvx::THRUST_TOLERANCE_FRAC * t_max;
+    let tol = bellyflop::method::scvx::THRUST_TOLERANCE_FRAC * t_max;
     let worst = sol
         .thrust_n
         .iter()

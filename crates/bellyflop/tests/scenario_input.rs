@@ -1,6 +1,6 @@
 //! Scenario input: parsing, validation and the error messages for bad input.
 
-use bellyflop::scenario::PAPER_TOML;
+use bellyflop::input::scenario::PAPER_TOML;
 use bellyflop::{Case, Formulation, InputError};
 
 /// PAPER_TOML with `from` (which must occur exactly once) replaced by `to`.
@@ -133,7 +133,10 @@ fn default_solver_settings_validate() {
     let start = PAPER_TOML.find("[solver]").unwrap();
     let without_solver = &PAPER_TOML[..start];
     let s = Case::from_toml_str(without_solver).expect("defaults are valid");
-    assert_eq!(s.solver, bellyflop::scenario::SolverSettings::default());
+    assert_eq!(
+        s.solver,
+        bellyflop::input::scenario::SolverSettings::default()
+    );
 }
 
 #[test]
@@ -521,10 +524,10 @@ fn smallest_gimbal_limits_assemble_and_solve_one_subproblem() {
         1,
     );
     let s = Case::from_toml_str(&text).expect("0.1 deg and 0.1 deg/s are accepted");
-    let tr = bellyflop::transcription::Transcription::new(&s.scenario, &s.solver);
-    let guess = bellyflop::scvx::straight_line(&tr, 12.0, 110_000.0);
+    let tr = bellyflop::method::scvx::transcription::Transcription::new(&s.scenario, &s.solver);
+    let guess = bellyflop::method::scvx::straight_line(&tr, 12.0, 110_000.0);
     let data = tr.assemble(&guess, 0.3, 0.0);
-    let mut conic = bellyflop::scvx::ConicSolver::new();
+    let mut conic = bellyflop::method::scvx::ConicSolver::new();
     // Solved or not, it returns.
     let _ = tr.solve_with(&mut conic, &data);
 }

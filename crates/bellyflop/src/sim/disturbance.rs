@@ -59,8 +59,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
-use crate::error::InputError;
-use crate::scenario::InitialState;
+use crate::input::error::InputError;
+use crate::input::scenario::InitialState;
 use crate::sim::check_range;
 use crate::sim::plant::{PlantState, TruthParams};
 
@@ -428,7 +428,7 @@ impl Realization {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scenario::Scenario;
+    use crate::input::scenario::Scenario;
 
     fn std_dev(v: &[f64]) -> (f64, f64) {
         let n = v.len() as f64;

@@ -33,7 +33,7 @@ pub use plant::{
 };
 pub use verdict::{RunOutcome, TouchdownLimits};
 
-use crate::error::InputError;
+use crate::input::error::InputError;
 
 /// Run the plant in closed loop until it ends (touchdown, propellant
 /// exhausted, time limit or a non-finite state) and return how it ended.
@@ -64,7 +64,7 @@ pub fn run(
 }
 
 /// Check that `value` is finite and lies in `lo..hi` with each end open or
-/// closed ([`crate::validate`]'s check, with the ends as pairs).
+/// closed ([`crate::input::validate`]'s check, with the ends as pairs).
 fn check_range(
     field: &str,
     value: f64,
@@ -72,13 +72,13 @@ fn check_range(
     (hi, hi_open): (f64, bool),
     unit: &str,
 ) -> Result<(), InputError> {
-    crate::validate::in_range(field, value, lo, hi, lo_open, hi_open, unit)
+    crate::input::validate::in_range(field, value, lo, hi, lo_open, hi_open, unit)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scenario::Scenario;
+    use crate::input::scenario::Scenario;
 
     #[test]
     fn closed_loop_run_ends_deterministically() {

@@ -47,9 +47,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::dynamics::{self, Model};
-use crate::error::InputError;
-use crate::scenario::{InitialState, Scenario, TerminalState};
+use crate::input::error::InputError;
+use crate::input::scenario::{InitialState, Scenario, TerminalState};
+use crate::problem::dynamics::{self, Model};
 use crate::sim::check_range;
 use crate::sim::disturbance::Realization;
 
@@ -739,7 +739,7 @@ fn crossing_time(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::propagate::{Dop853, Stats};
+    use crate::verify::propagate::{Dop853, Stats};
 
     /// The paper's scenario with optional vacuum and a deep-throttling engine.
     fn scenario(vacuum: bool, min_thrust_n: f64) -> Scenario {

@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::InputError;
+use crate::input::error::InputError;
 use crate::sim::check_range;
 use crate::sim::plant::{Outcome, Touchdown};
 

@@ -38,7 +38,7 @@ use faer::reborrow::ReborrowMut;
 use faer::{Accum, MatMut, MatRef, Par};
 
 use super::{Block8, Inertia, Ldlt};
-use crate::mesh::Mesh;
+use crate::collocation::mesh::Mesh;
 
 /// Kept states per collocation point (z, Vx, Vz, θ, ω, m, δ).
 const NR: usize = super::NR;

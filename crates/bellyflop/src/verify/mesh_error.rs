@@ -7,8 +7,8 @@
 //!   through the interval's n_k + 1 nodes;
 //! - X̃(τ) integrates the dynamics (Eq. 1–3) from X at the interval's first
 //!   node with the controls as they are flown when the landing error is
-//!   measured ([`crate::propagate`]'s default nozzle model): the thrust of
-//!   [`crate::control_profile`] (within its bounds, each collocation point's
+//!   measured ([`crate::verify::propagate`]'s default nozzle model): the thrust of
+//!   [`crate::collocation::control_profile`] (within its bounds, each collocation point's
 //!   impulse kept; on interior arcs the interpolant through the collocation
 //!   points), and the nozzle angle δ as its state polynomial, clamped to
 //!   ±δ_max (its own error is that clamp), by DOP853 at tolerance 1e-10,
@@ -28,13 +28,13 @@
 //!
 //! with the maximum over all the nodes of the trajectory.
 
-use crate::control_profile::Profile;
-use crate::dynamics::{self, Model};
-use crate::propagate::{Dop853, IntegrationError, Stats};
-use crate::radau::{interpolate, Lgr};
-use crate::scenario::Scenario;
+use crate::collocation::control_profile::Profile;
+use crate::collocation::radau::{interpolate, Lgr};
+use crate::input::scenario::Scenario;
+use crate::problem::dynamics::{self, Model};
 pub use crate::solution::IntervalError;
 use crate::solution::{Solution, STATE_COLUMN_NAMES};
+use crate::verify::propagate::{Dop853, IntegrationError, Stats};
 
 /// The estimate on every interval of `solution`'s mesh ([`Solution::mesh`]),
 /// with the vehicle model of `scenario`.
@@ -45,7 +45,7 @@ pub fn estimate(
     let s = solution;
     let n = s.nodes;
     let states = s.state_columns();
-    if let Err(e) = crate::validate::mesh_layout("mesh_layout", &s.mesh) {
+    if let Err(e) = crate::input::validate::mesh_layout("mesh_layout", &s.mesh) {
         return Err(IntegrationError::BadSolution(format!(
             "a mesh error estimate needs the solution's mesh: {e}"
         )));
@@ -69,7 +69,7 @@ pub fn estimate(
     let integrator = Dop853::default();
     let tf = s.tf_s;
     let time = |tau: f64| 0.5 * (tau + 1.0) * tf;
-    // The controls as flown (clamped, impulse kept: crate::control_profile).
+    // The controls as flown (clamped, impulse kept: crate::collocation::control_profile).
     let t_nodes: Vec<f64> = mesh.nodes.iter().map(|&tau| time(tau)).collect();
     let delta_max = model.max_gimbal_rad;
     let thrust = Profile::new(
@@ -150,8 +150,8 @@ pub fn estimate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::Mesh;
-    use crate::scenario::Scenario;
+    use crate::collocation::mesh::Mesh;
+    use crate::input::scenario::Scenario;
 
     /// A trajectory whose controls are linear in time (so that every mesh's
     /// control polynomials are exact), integrated accurately: the "solution"
@@ -219,7 +219,7 @@ mod tests {
         let at_nodes: Vec<[f64; 8]> = (0..=n).map(|k| ys[20 * k]).collect();
         let col = |i: usize| at_nodes.iter().map(|y| y[i]).collect::<Vec<f64>>();
         // A solution of the right shape, its arrays then replaced.
-        let mut sol = crate::solve(&s, &Default::default(), &mut crate::scvx::Silent);
+        let mut sol = crate::solve(&s, &Default::default(), &mut crate::method::scvx::Silent);
         assert_eq!((sol.nodes, sol.intervals), (n, intervals));
         sol.tf_s = tf;
         sol.t_s = t_nodes.clone();
@@ -415,7 +415,7 @@ mod tests {
     #[test]
     fn a_solution_without_nodes_is_an_error() {
         let s = Scenario::paper();
-        let mut sol = crate::solve(&s, &Default::default(), &mut crate::scvx::Silent);
+        let mut sol = crate::solve(&s, &Default::default(), &mut crate::method::scvx::Silent);
         sol.z_m.pop();
         assert!(matches!(
             estimate(&s, &sol),

@@ -12,7 +12,7 @@
 
 use num_dual::{DualNum, DualSVec64};
 
-use crate::scenario::{Environment, Formulation, Vehicle};
+use crate::input::scenario::{Environment, Formulation, Vehicle};
 
 /// Number of LCvx states: x, z, Vx, Vz, θ, w, ω, δ.
 pub const NX: usize = 8;
@@ -222,7 +222,7 @@ pub fn thrust_components(form: Formulation, x: &[f64; NX], u: &[f64]) -> (f64, f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scenario::Scenario;
+    use crate::input::scenario::Scenario;
 
     fn model() -> Model {
         let s = Scenario::paper();

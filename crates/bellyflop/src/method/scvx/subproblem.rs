@@ -10,9 +10,9 @@ use clarabel::algebra::CscMatrix;
 use clarabel::solver::{SolverStatus, SupportedConeT};
 
 use super::conic::ConicSolver;
-use crate::dynamics::{self, ix, NX};
-use crate::scenario::Formulation;
-use crate::transcription::{vector_residuals, Trajectory, Transcription};
+use crate::input::scenario::Formulation;
+use crate::method::scvx::transcription::{vector_residuals, Trajectory, Transcription};
+use crate::problem::dynamics::{self, ix, NX};
 
 /// Regularization ε of the second-order correction's system [I Aᵀ; A −εI]:
 /// small against the unit primal block, so the step is the minimum-norm one

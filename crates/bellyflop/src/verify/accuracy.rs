@@ -10,9 +10,9 @@
 //! `solver.landing_velocity_tolerance_mps`. Beyond either, the status becomes
 //! [`Status::Inaccurate`].
 
-use crate::propagate::{self, Options};
-use crate::scenario::{Scenario, SolverSettings};
+use crate::input::scenario::{Scenario, SolverSettings};
 use crate::solution::{Solution, Status};
+use crate::verify::propagate::{self, Options};
 
 /// Demote a `solved` answer whose re-integrated landing error exceeds the
 /// scenario's tolerances (or cannot be measured) to `inaccurate`, with a

@@ -1,6 +1,6 @@
 //! How a scenario is solved, apart from the problem itself: the method, the
 //! SCvx settings and the direct method's (`[solver]` and `[solver.direct]`
-//! of a scenario file). Their ranges are checked by [`crate::validate`].
+//! of a scenario file). Their ranges are checked by [`crate::input::validate`].
 
 use serde::{Deserialize, Serialize};
 
@@ -30,7 +30,7 @@ pub enum Method {
     /// Successive convexification with Clarabel (the paper's method).
     Scvx,
     /// A primal–dual interior-point method on the nonlinear program P2
-    /// ([`crate::direct`]); the default: on 150 seeded dispersed states it
+    /// ([`crate::method::direct`]); the default: on 150 seeded dispersed states it
     /// solves every state IPOPT solves, 7.3× (N = 20) and 12.7× (N = 40)
     /// faster than IPOPT (BENCHMARKS.md, `bench/envelope.py`).
     #[default]
@@ -110,7 +110,7 @@ pub struct SolverSettings {
     /// failing.
     pub terminal_lateral_weight: f64,
     /// Largest re-integrated landing position error ‖(x, z)(t_f) − (x_f, z_f)‖
-    /// of a `solved` answer \[m\] ([`crate::accuracy`]); beyond it the status
+    /// of a `solved` answer \[m\] ([`crate::verify::accuracy`]); beyond it the status
     /// is `inaccurate`. Default 5 m, six times the paper's case at N = 20
     /// (0.81 m with both methods).
     pub landing_position_tolerance_m: f64,
@@ -162,7 +162,7 @@ impl Default for SolverSettings {
 #[serde(deny_unknown_fields, default)]
 pub struct RefinementSettings {
     /// The largest relative error e_k of any mesh interval that is accepted
-    /// ([`crate::mesh_error`]); 0 (the default) solves on the scenario's
+    /// ([`crate::verify::mesh_error`]); 0 (the default) solves on the scenario's
     /// mesh alone.
     pub tolerance: f64,
     /// Passes, the first solve included.
@@ -204,7 +204,7 @@ pub struct DirectSettings {
     pub mu_strategy: MuStrategy,
     /// Coarse-to-fine start: first solve on a global mesh of this many
     /// points from the straight line, then start the scenario's mesh from
-    /// that answer, interpolated, at μ_0 = [`crate::direct::WARM_MU`]. Used when the
+    /// that answer, interpolated, at μ_0 = [`crate::method::direct::WARM_MU`]. Used when the
     /// scenario's N is at least twice as many; 0 always starts from the
     /// straight line. Default 10, measured on 18 dispersed states
     /// (BENCHMARKS.md "Direct method"): 2.7× → 3.4× faster than IPOPT at
@@ -214,7 +214,7 @@ pub struct DirectSettings {
     /// Tolerance of the coarse start's solve (its E_0, as `tolerance`). The
     /// coarse answer only places the fine solve near its optimum: converging
     /// it further is work that the fine mesh redoes (its μ restarts at
-    /// [`crate::direct::WARM_MU`]). Default 1e-2 (BENCHMARKS.md "Direct method").
+    /// [`crate::method::direct::WARM_MU`]). Default 1e-2 (BENCHMARKS.md "Direct method").
     pub coarse_tolerance: f64,
 }
 
@@ -229,7 +229,7 @@ pub enum MuStrategy {
     /// μ = σ·(sᵀz/n) with σ = (μ_aff/(sᵀz/n))³ from an affine-scaling probe
     /// (Mehrotra 1992; Nocedal, Wächter & Waltz 2009), the filter reset as μ
     /// changes; monotone from the first iteration that fails to reduce the
-    /// optimality error E_0 over [`crate::direct::ADAPTIVE_WINDOW`] iterations, or whose
+    /// optimality error E_0 over [`crate::method::direct::ADAPTIVE_WINDOW`] iterations, or whose
     /// line search fails.
     Adaptive,
 }

@@ -5,8 +5,8 @@
 use serde_json::{json, Value};
 
 use crate::guidance::{Flight, SimConfig};
-use crate::propagate::{self, IntegrationError, Interpolation, Options, Propagation};
 use crate::sim::RunOutcome;
+use crate::verify::propagate::{self, IntegrationError, Interpolation, Options, Propagation};
 use crate::{Scenario, Solution};
 
 /// Re-propagate `solution` with the default integrator and nozzle model and
@@ -66,7 +66,7 @@ pub fn add_landing_json(v: &mut Value, p: &Result<Propagation, IntegrationError>
 }
 
 /// The `mesh` field: the solution's relative error on each interval
-/// ([`crate::mesh_error`]) and the largest, or why it could not be estimated.
+/// ([`crate::verify::mesh_error`]) and the largest, or why it could not be estimated.
 ///
 /// A refined solution's last pass estimated it already (refinement returns
 /// the answer of its last estimated pass); that estimate is reused.
@@ -78,7 +78,7 @@ pub fn add_mesh_json(v: &mut Value, scenario: &Scenario, solution: &Solution) {
         .filter(|p| p.mesh == solution.mesh);
     let errors = match done {
         Some(p) => Ok(p.intervals.clone()),
-        None => crate::mesh_error::estimate(scenario, solution),
+        None => crate::verify::mesh_error::estimate(scenario, solution),
     };
     v["mesh"] = match errors {
         Ok(errors) => json!({

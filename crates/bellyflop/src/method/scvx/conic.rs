@@ -13,7 +13,7 @@
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus};
 
 use super::subproblem::{ConicData, SubproblemResult};
-use crate::transcription::Transcription;
+use crate::method::scvx::transcription::Transcription;
 
 /// Clarabel's settings for SCvx subproblems.
 fn settings() -> DefaultSettings<f64> {

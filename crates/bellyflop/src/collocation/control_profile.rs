@@ -26,10 +26,10 @@
 //! metres where the interval error estimate, computed with the unclamped
 //! polynomial, read 1e-4 (issue 16, BENCHMARKS.md "Mesh refinement").
 //! Both the landing error
-//! ([`crate::propagate`]) and the error estimate ([`crate::mesh_error`])
+//! ([`crate::verify::propagate`]) and the error estimate ([`crate::verify::mesh_error`])
 //! integrate this profile, so that the estimate measures what is flown.
 
-use crate::radau::{barycentric_weights, interpolate, Lgr};
+use crate::collocation::radau::{barycentric_weights, interpolate, Lgr};
 
 /// A signal within this fraction of its range of a bound is on that bound
 /// (for the profile's holds and for refinement's events alike). A point
@@ -287,7 +287,7 @@ mod tests {
 
     /// Node times of a uniform hp mesh on [0, tf].
     fn times(points: &[usize], tf: f64) -> Vec<f64> {
-        let mesh = crate::mesh::Mesh::uniform(points.iter().sum(), points.len());
+        let mesh = crate::collocation::mesh::Mesh::uniform(points.iter().sum(), points.len());
         (0..=mesh.n).map(|k| mesh.time_s(k, tf)).collect()
     }
 

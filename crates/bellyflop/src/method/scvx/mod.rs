@@ -10,13 +10,14 @@ use std::time::Instant;
 
 pub mod conic;
 mod subproblem;
+pub mod transcription;
 
-use crate::dynamics::{ix, NU_MAX, NX};
-pub use crate::observer::{Observer, Silent};
-use crate::scenario::{Formulation, Scenario, SolverSettings};
+use crate::input::scenario::{Formulation, Scenario, SolverSettings};
+pub use crate::method::observer::{Observer, Silent};
+use crate::method::scvx::transcription::{Trajectory, Transcription};
+use crate::problem::dynamics::{ix, NU_MAX, NX};
 pub use crate::solution::GROUND_TOLERANCE_M;
 use crate::solution::{self, IterationRecord, Solution, Status};
-use crate::transcription::{Trajectory, Transcription};
 pub use conic::ConicSolver;
 pub use subproblem::{ConicData, SubproblemResult};
 
@@ -211,7 +212,7 @@ pub fn solve(
 }
 
 /// SCvx's relaxed-then-exact strategy, shared by cold solves ([`solve`]) and
-/// re-plans ([`crate::replan::Planner`]), which differ only in these fields
+/// re-plans ([`crate::guidance::planner::Planner`]), which differ only in these fields
 /// and in their reference trajectory.
 ///
 /// With the exact formulation and `relaxed_iterations` K > 0, the paper's

@@ -1,5 +1,5 @@
 //! Problem P2 (Eq. 8–10) on the LGR mesh as one nonlinear program, for the
-//! direct method ([`crate::direct`]).
+//! direct method ([`crate::method::direct`]).
 //!
 //! This is the transcription that the CasADi + IPOPT reference
 //! (`bench/reference/nlp_reference.py`) solves, with the ground bound
@@ -22,10 +22,10 @@
 
 use num_dual::Dual2SVec64;
 
-use crate::dynamics::{self, Model};
-use crate::mesh::Mesh;
-use crate::scenario::{Formulation, Scenario, SolverSettings};
-use crate::transcription::Scaling;
+use crate::collocation::mesh::Mesh;
+use crate::input::scenario::{Formulation, Scenario, SolverSettings};
+use crate::method::scvx::transcription::Scaling;
+use crate::problem::dynamics::{self, Model};
 
 /// States of P2 at a node: x, z, Vx, Vz, θ, w, m, δ.
 pub const NS: usize = 8;
@@ -109,7 +109,7 @@ pub struct Nlp {
     pub soft: SoftTerms,
 }
 
-/// The soft constraints of [`crate::scenario::SolverSettings`], as exact
+/// The soft constraints of [`crate::input::scenario::SolverSettings`], as exact
 /// penalties in the objective, in scaled units:
 ///
 /// - thrust margin: the thrust is T + A − B with T in the band
@@ -525,8 +525,8 @@ impl Nlp {
 
     /// The scaled vector as a trajectory of the exact LCvx formulation
     /// (ω = ln m, σ = T/m, χ), which [`crate::solution::Solution`] reports.
-    pub fn to_trajectory(&self, w: &[f64]) -> crate::transcription::Trajectory {
-        use crate::dynamics::{ix, NU_MAX, NX};
+    pub fn to_trajectory(&self, w: &[f64]) -> crate::method::scvx::transcription::Trajectory {
+        use crate::problem::dynamics::{ix, NU_MAX, NX};
         let x: Vec<[f64; NX]> = (0..=self.n)
             .map(|k| {
                 let p = self.physical_node(w, k);
@@ -546,7 +546,7 @@ impl Nlp {
                 u
             })
             .collect();
-        crate::transcription::Trajectory {
+        crate::method::scvx::transcription::Trajectory {
             x,
             u,
             tf_s: self.tf_s(w),
@@ -555,8 +555,8 @@ impl Nlp {
 
     /// The scaled vector of an exact-formulation trajectory (the inverse of
     /// [`Nlp::to_trajectory`]), for warm starts from an earlier plan.
-    pub fn from_trajectory(&self, t: &crate::transcription::Trajectory) -> Vec<f64> {
-        use crate::dynamics::ix;
+    pub fn from_trajectory(&self, t: &crate::method::scvx::transcription::Trajectory) -> Vec<f64> {
+        use crate::problem::dynamics::ix;
         let mut w = vec![0.0; self.n_var()];
         for k in 0..=self.n {
             let x = &t.x[k];
@@ -607,7 +607,7 @@ impl Nlp {
     }
 
     /// The multipliers of an answer on `from`'s mesh carried onto this
-    /// NLP's, for a primal–dual warm start ([`crate::direct::solve_nlp_warm`]).
+    /// NLP's, for a primal–dual warm start ([`crate::method::direct::solve_nlp_warm`]).
     ///
     /// Collocation multipliers scale with the quadrature weights: λ_ic/w_i
     /// is the discrete costate of state c at τ_i, and a bound multiplier of

@@ -24,7 +24,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::radau::{interpolate, Lgr};
+use crate::collocation::radau::{interpolate, Lgr};
 
 /// A mesh's shape, as data: M + 1 breaks τ_0 = −1 < τ_1 < … < τ_M = +1 and
 /// the LGR points n_k of each of the M intervals (N = Σ n_k). A scenario may
@@ -136,7 +136,7 @@ impl Mesh {
     /// Panics unless there is at least one interval, `breaks_tau` has one
     /// more entry than `points`, runs from −1 to +1 strictly increasing and
     /// every interval has at least one point. Scenario validation
-    /// ([`crate::validate`]) enforces this, and more, on input.
+    /// ([`crate::input::validate`]) enforces this, and more, on input.
     pub fn new(breaks_tau: &[f64], points: &[usize]) -> Mesh {
         let m = points.len();
         assert!(

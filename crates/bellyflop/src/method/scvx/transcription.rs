@@ -1,7 +1,7 @@
 //! SCvx's transcription of P2 on the LGR mesh: the variable layout, the
 //! scaling, the bounds, the defects and the merit function of the convex
 //! subproblem P4 (Eq. 26–30). Its assembly as conic data for Clarabel, and
-//! Clarabel itself, live on the SCvx side ([`crate::scvx::subproblem`]).
+//! Clarabel itself, live on the SCvx side ([`crate::method::scvx::subproblem`]).
 //!
 //! Decision variables are scaled
 //! to order one (`value = offset + scale·ẑ`); every constraint row is divided by
@@ -14,13 +14,13 @@
 //! Their weighted sum is the exact penalty that keeps every subproblem feasible.
 //! Two optional soft constraints for closed-loop plans follow, each at its own
 //! weight and part of the cost, not of the infeasibility: the use of a thrust
-//! margin ([`crate::scenario::SolverSettings::thrust_margin_frac`]) per node
+//! margin ([`crate::input::scenario::SolverSettings::thrust_margin_frac`]) per node
 //! and side, and the misses of x(t_f) and Vx(t_f)
-//! ([`crate::scenario::SolverSettings::terminal_lateral_weight`]).
+//! ([`crate::input::scenario::SolverSettings::terminal_lateral_weight`]).
 
-use crate::dynamics::{self, ix, Model, NU_MAX, NX};
-use crate::mesh::Mesh;
-use crate::scenario::{Formulation, Scenario, SolverSettings};
+use crate::collocation::mesh::Mesh;
+use crate::input::scenario::{Formulation, Scenario, SolverSettings};
+use crate::problem::dynamics::{self, ix, Model, NU_MAX, NX};
 
 /// A trajectory in physical units (SI, radians, ω = ln m) on the LGR grid.
 #[derive(Debug, Clone, PartialEq)]
@@ -50,7 +50,7 @@ pub struct Layout {
     /// 0 (exact), 1 (paper: direction, Eq. 27), 2 (vector: direction and magnitude).
     pub path_rows: usize,
     /// Whether the soft thrust margin's variables are present
-    /// ([`crate::scenario::SolverSettings::thrust_margin_frac`]).
+    /// ([`crate::input::scenario::SolverSettings::thrust_margin_frac`]).
     pub soft_margin: bool,
     /// Whether x(t_f) and Vx(t_f) are soft (their misses are variables).
     pub soft_terminal: bool,
@@ -195,7 +195,7 @@ pub struct Transcription {
     pub ground_bound: bool,
     /// Structural nonzeros of ∂f/∂x and ∂f/∂u: `assemble` emits exactly these
     /// entries, zero or not, so every subproblem has the same sparsity and
-    /// Clarabel can be updated in place ([`crate::scvx::conic`]).
+    /// Clarabel can be updated in place ([`crate::method::scvx::conic`]).
     pub(crate) pattern_a: [[bool; NX]; NX],
     pub(crate) pattern_b: [[bool; NU_MAX]; NX],
     /// Scaled bounds of the trajectory variables (±∞ where free).

@@ -6,9 +6,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::InputError;
-use crate::mesh::{Mesh, MeshLayout};
-pub use crate::settings::{Formulation, Method, SolverSettings};
+use crate::collocation::mesh::{Mesh, MeshLayout};
+use crate::input::error::InputError;
+pub use crate::input::settings::{Formulation, Method, SolverSettings};
 
 /// Vehicle parameters (paper Table 1, plus the drag coefficient from NOTES.md).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -116,7 +116,7 @@ impl TerminalState {
 pub struct Discretization {
     /// Number of LGR collocation points N (4 to 200; at most 100 on the global mesh, one interval).
     pub nodes: usize,
-    /// Number of LGR mesh intervals M (1 to N/2; see [`crate::mesh`]). 1 is the
+    /// Number of LGR mesh intervals M (1 to N/2; see [`crate::collocation::mesh`]). 1 is the
     /// paper's global mesh; more intervals make each subproblem far cheaper.
     #[serde(default = "one")]
     pub intervals: usize,
@@ -226,15 +226,16 @@ impl Case {
 
     /// Parse and validate a scenario file's text.
     pub fn from_toml_str(text: &str) -> Result<Self, InputError> {
-        let case: Case = crate::error::parse_toml(crate::error::FileKind::Scenario, text)?;
+        let case: Case =
+            crate::input::error::parse_toml(crate::input::error::FileKind::Scenario, text)?;
         case.validate()?;
         Ok(case)
     }
 
     /// Read, parse and validate a scenario file.
     pub fn from_file(path: &std::path::Path) -> Result<Self, InputError> {
-        Self::from_toml_str(&crate::error::read_text(
-            crate::error::FileKind::Scenario,
+        Self::from_toml_str(&crate::input::error::read_text(
+            crate::input::error::FileKind::Scenario,
             path,
         )?)
     }
@@ -252,7 +253,7 @@ impl Case {
 }
 
 /// The paper's case, as shipped in `scenarios/paper.toml`.
-pub const PAPER_TOML: &str = include_str!("../../../scenarios/paper.toml");
+pub const PAPER_TOML: &str = include_str!("../../../../scenarios/paper.toml");
 
 impl Scenario {
     /// The paper's case (Table 1, Section 4 boundary conditions, C_LD = 195.52 kg/m).

@@ -1,5 +1,5 @@
 //! The direct method: a primal–dual interior-point method on the nonlinear
-//! program P2 ([`crate::nlp`]), after Wächter & Biegler, "On the
+//! program P2 ([`crate::method::direct::nlp`]), after Wächter & Biegler, "On the
 //! implementation of an interior-point filter line-search algorithm for
 //! large-scale nonlinear programming", Math. Prog. 106 (2006) — IPOPT's
 //! published algorithm, restricted to what P2 needs: equality constraints
@@ -8,7 +8,7 @@
 //! - Barrier subproblems min φ_μ(w) = f(w) − μ Σ ln(w − l) − μ Σ ln(u − w)
 //!   s.t. c(w) = 0, with the monotone μ update of §3.1 (Eq. 7).
 //! - Newton steps on the primal–dual equations (Eq. 11–13), solved by the
-//!   structured KKT solve of [`crate::kkt`]; inertia correction (§3.1.1)
+//!   structured KKT solve of [`crate::method::direct::kkt`]; inertia correction (§3.1.1)
 //!   regularizes each indefinite node block until the system has the
 //!   inertia of a descent direction.
 //! - The filter line search of §2.3 with second-order corrections (§2.4).
@@ -21,14 +21,17 @@
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
+pub mod kkt;
+pub mod nlp;
+
 use std::time::Instant;
 
-use crate::kkt::{Inertia, KktMatrix, KktSolver};
-pub use crate::nlp::Duals;
-use crate::nlp::{Nlp, PointDerivatives, NL, NS};
-use crate::observer::Observer;
-use crate::settings::SolverSettings;
-pub use crate::settings::{DirectSettings, MuStrategy};
+use crate::input::settings::SolverSettings;
+pub use crate::input::settings::{DirectSettings, MuStrategy};
+use crate::method::direct::kkt::{Inertia, KktMatrix, KktSolver};
+pub use crate::method::direct::nlp::Duals;
+use crate::method::direct::nlp::{Nlp, PointDerivatives, NL, NS};
+use crate::method::observer::Observer;
 pub use crate::solution::DirectIteration;
 use crate::solution::Status;
 
@@ -234,7 +237,7 @@ pub fn solve_nlp(
 /// multiplier at least μ_0/s (s: the slack), so that no pair starts far
 /// below the barrier's complementarity. For the passes of mesh refinement,
 /// whose starts are the last pass's answer and multipliers carried onto a
-/// finer mesh ([`crate::nlp::Nlp::interpolate_duals_from`]).
+/// finer mesh ([`crate::method::direct::nlp::Nlp::interpolate_duals_from`]).
 pub fn solve_nlp_warm(
     nlp: &Nlp,
     w0: &[f64],
@@ -345,8 +348,10 @@ impl<'a> Driver<'a> {
     }
 
     fn final_mass_kg(&self, w: &[f64]) -> f64 {
-        let k = self.nlp.idx(self.nlp.n, crate::nlp::slot::M);
-        self.nlp.physical(crate::nlp::slot::M, w[k])
+        let k = self
+            .nlp
+            .idx(self.nlp.n, crate::method::direct::nlp::slot::M);
+        self.nlp.physical(crate::method::direct::nlp::slot::M, w[k])
     }
 
     /// φ_μ(w) = f(w) + barrier.
@@ -1191,7 +1196,7 @@ pub fn lagrangian_blocks(
 /// the thrust bounds at every reported value and the ground. The thrust is
 /// along the nozzle by construction (gap 0, alignment 1).
 pub fn checks(nlp: &Nlp, w: &[f64]) -> crate::solution::Checks {
-    use crate::nlp::slot;
+    use crate::method::direct::nlp::slot;
     let mut c = vec![0.0; nlp.n_con()];
     nlp.defects(w, &mut c);
     let m = &nlp.model;
@@ -1226,7 +1231,7 @@ pub fn solve(
 
 /// [`solve`], and the NLP of the scenario's mesh with the multipliers of
 /// the answer on it: the start of a primal–dual warm start on another mesh
-/// ([`crate::nlp::Nlp::interpolate_duals_from`], [`solve_nlp_warm`]).
+/// ([`crate::method::direct::nlp::Nlp::interpolate_duals_from`], [`solve_nlp_warm`]).
 pub fn solve_keeping_duals(
     scenario: &crate::Scenario,
     settings: &SolverSettings,
@@ -1380,7 +1385,7 @@ pub fn solve_from_start(
         formulation: crate::Formulation::Exact,
         ..settings.clone()
     };
-    let tr = crate::transcription::Transcription::new(scenario, &exact);
+    let tr = crate::method::scvx::transcription::Transcription::new(scenario, &exact);
     let checks = checks(nlp, &r.w);
     let (mut status, mut message) = (r.status, r.message);
     if status == Status::Solved
@@ -1401,7 +1406,7 @@ pub fn solve_from_start(
         Vec::new(),
         ms,
     );
-    sol.method = crate::scenario::Method::Direct;
+    sol.method = crate::input::scenario::Method::Direct;
     sol.iterations = r.history.len();
     sol.direct_history = r.history;
     let duals = Duals {
@@ -1415,7 +1420,7 @@ pub fn solve_from_start(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scenario::Scenario;
+    use crate::input::scenario::Scenario;
 
     /// ∇_w (f + λᵀc) of the transcription, from its point derivatives.
     fn lagrangian_gradient(nlp: &Nlp, w: &[f64], lambda: &[f64]) -> Vec<f64> {
@@ -1450,7 +1455,7 @@ mod tests {
             let nlp = Nlp::new(&s, &sv);
             let mut w = nlp.straight_line(11.0, 114_000.0);
             if soft {
-                use crate::nlp::slot;
+                use crate::method::direct::nlp::slot;
                 for i in 0..nlp.n {
                     let s = if i % 2 == 0 { slot::ABOVE } else { slot::BELOW };
                     w[nlp.idx(i, s)] = 0.01 * (1.0 + i as f64);
@@ -1560,9 +1565,9 @@ mod tests {
 #[cfg(test)]
 mod mesh_tests {
     use super::*;
-    use crate::mesh::MeshLayout;
-    use crate::scenario::{Case, Scenario};
-    use crate::scvx::Silent;
+    use crate::collocation::mesh::MeshLayout;
+    use crate::input::scenario::{Case, Scenario};
+    use crate::method::scvx::Silent;
 
     /// The paper's case and its (direct) settings on N points over M
     /// uniform intervals.
@@ -1688,7 +1693,7 @@ mod mesh_tests {
         let (mut s, sv) = paper_on(20, 4);
         s.discretization.mesh = Some(layout.clone());
         s.validate().expect("valid");
-        let tr = crate::transcription::Transcription::new(&s, &sv);
+        let tr = crate::method::scvx::transcription::Transcription::new(&s, &sv);
         assert_eq!(tr.mesh.layout(), layout);
         assert_eq!(Nlp::new(&s, &sv).mesh.layout(), layout);
         let sol = solve(&s, &sv, &mut Silent);
@@ -1705,13 +1710,13 @@ mod mesh_tests {
             sol.final_mass_kg, sol.tf_s, sol.iterations, uniform.final_mass_kg, uniform.tf_s
         );
         assert!((sol.final_mass_kg - uniform.final_mass_kg).abs() < 0.005 * uniform.fuel_kg);
-        let errors = crate::mesh_error::estimate(&s, &sol).expect("estimate");
+        let errors = crate::verify::mesh_error::estimate(&s, &sol).expect("estimate");
         let points: Vec<usize> = errors.iter().map(|e| e.points).collect();
         assert_eq!(points, layout.points);
         // SCvx on the same mesh (the method alone, as the direct answer above).
         let mut scvx = sv.clone();
-        scvx.method = crate::scenario::Method::Scvx;
-        let other = crate::scvx::solve(&s, &scvx, &mut Silent);
+        scvx.method = crate::input::scenario::Method::Scvx;
+        let other = crate::method::scvx::solve(&s, &scvx, &mut Silent);
         eprintln!(
             "scvx non-uniform: {:?} m_f {:.3} kg, {} iterations",
             other.status, other.final_mass_kg, other.iterations

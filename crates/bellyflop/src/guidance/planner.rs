@@ -14,17 +14,17 @@
 //! vertices on the singular arcs and the trust region binds for 15–20
 //! iterations ([`WARM_PROXIMAL_WEIGHT`]).
 
-use crate::direct;
-use crate::dynamics::{self, ix, NU_MAX, NX};
-use crate::error::InputError;
-use crate::mesh::Mesh;
-use crate::nlp::Nlp;
-use crate::propagate::{Interpolant, Interpolation};
-use crate::scenario::{Formulation, InitialState, Method, Scenario, SolverSettings};
-use crate::scvx::ConicSolver;
-use crate::scvx::{self, Observer};
+use crate::collocation::mesh::Mesh;
+use crate::input::error::InputError;
+use crate::input::scenario::{Formulation, InitialState, Method, Scenario, SolverSettings};
+use crate::method::direct;
+use crate::method::direct::nlp::Nlp;
+use crate::method::scvx::transcription::{Trajectory, Transcription};
+use crate::method::scvx::ConicSolver;
+use crate::method::scvx::{self, Observer};
+use crate::problem::dynamics::{self, ix, NU_MAX, NX};
 use crate::solution::Solution;
-use crate::transcription::{Trajectory, Transcription};
+use crate::verify::propagate::{Interpolant, Interpolation};
 
 /// Trust region of a warm re-plan's first subproblem (scaled ∞-norm); the
 /// cold solve's 0.3 also did best from the shifted plan (examples/replan:
@@ -32,7 +32,7 @@ use crate::transcription::{Trajectory, Transcription};
 pub const WARM_TRUST_REGION: f64 = 0.3;
 
 /// Proximal weight of a warm re-plan's subproblems
-/// ([`crate::scenario::SolverSettings::proximal_weight`]). Measured with
+/// ([`crate::input::scenario::SolverSettings::proximal_weight`]). Measured with
 /// examples/replan (nominal state 0.5 s along the plan, exact form directly):
 /// at N = 10, 20 and 40 it takes 4, 2 and 3 iterations with 0.01, against
 /// 16, 15 and 19 with 0, 15, 13 and 20 with 0.003, and 3, 4 and 6 with 0.03.

@@ -72,7 +72,7 @@
 //! ([`Controls::interval_points`]), and **for a refined solution**
 //! ([`crate::refine`], breaks at the switches) by the collocation's own
 //! polynomials, as they can be flown ([`ControlSource::Collocation`],
-//! [`crate::control_profile`]: within the bounds, held over the quadrature
+//! [`crate::collocation::control_profile`]: within the bounds, held over the quadrature
 //! cell of a point on a bound, and bang–bang inside the cell of a switch,
 //! each point's impulse kept). On the paper's case refined to 1e-6 (6
 //! passes, 96 points) the clamped polynomials landed 6 mm and 1.6 mm/s from
@@ -85,9 +85,9 @@
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::control_profile::Profile;
-use crate::dynamics::{self, Model};
-use crate::scenario::Scenario;
+use crate::collocation::control_profile::Profile;
+use crate::input::scenario::Scenario;
+use crate::problem::dynamics::{self, Model};
 use crate::solution::Solution;
 
 // ---------------------------------------------------------------------------
@@ -652,7 +652,7 @@ pub enum ControlSource {
     /// mesh, see [`Controls::interval_points`]).
     Nodes,
     /// The collocation's own polynomials, per interval, as they can be
-    /// flown: T and χ by [`crate::control_profile::Profile`] (degree
+    /// flown: T and χ by [`crate::collocation::control_profile::Profile`] (degree
     /// n_k − 1 through its collocation points on interior arcs, held on the
     /// bounds, bang–bang across a switch, within the bounds), δ of degree
     /// n_k through its nodes, clamped. On a refined mesh the controls are
@@ -810,7 +810,7 @@ pub fn integrate_controls(
             .iter()
             .map(|&(start, n)| {
                 let tn = c.t_s[start..=start + n].to_vec();
-                let bn = crate::radau::barycentric_weights(&tn);
+                let bn = crate::collocation::radau::barycentric_weights(&tn);
                 (tn, bn)
             })
             .collect()
@@ -872,7 +872,8 @@ pub fn integrate_controls(
         let delta_at = |t: f64| match poly {
             Some((tn, bn)) => {
                 let r = model.max_gimbal_rad;
-                crate::radau::interpolate(tn, bn, &c.delta_rad[start..=start + np], t).clamp(-r, r)
+                crate::collocation::radau::interpolate(tn, bn, &c.delta_rad[start..=start + np], t)
+                    .clamp(-r, r)
             }
             None => delta.eval_on(k, t),
         };

@@ -62,16 +62,19 @@
 //! reading, for that reason; wall-clock solve times are recorded, and those
 //! over the period are flagged `late`.
 
+pub mod navigation;
+pub mod planner;
+
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::dynamics::ix;
-use crate::error::InputError;
-use crate::navigation::{PositionFilter, WindEstimator};
-use crate::replan::{initial_state, Plan, Planner};
-use crate::scenario::{Case, Scenario};
-use crate::scvx::Silent;
+use crate::guidance::navigation::{PositionFilter, WindEstimator};
+use crate::guidance::planner::{initial_state, Plan, Planner};
+use crate::input::error::InputError;
+use crate::input::scenario::{Case, Scenario};
+use crate::method::scvx::Silent;
+use crate::problem::dynamics::ix;
 use crate::sim::{
     Command, Dispersions, Outcome, Plant, PlantConfig, PlantState, RunOutcome, SaturationCounts,
     StepResult, TouchdownLimits,
@@ -106,10 +109,10 @@ pub struct GuidanceConfig {
     /// unconverged.
     pub replan_method: crate::Method,
     /// Deadline of a direct re-plan, as an interior-point iteration budget.
-    /// Default [`crate::replan::DIRECT_REPLAN_ITERATIONS`]. Range 1 to 1000.
+    /// Default [`crate::guidance::planner::DIRECT_REPLAN_ITERATIONS`]. Range 1 to 1000.
     pub replan_direct_max_iterations: usize,
     /// Iterations of the re-plans' relaxed first phase (the paper's
-    /// formulation, [`crate::replan::Planner::warm_relaxed_iterations`]),
+    /// formulation, [`crate::guidance::planner::Planner::warm_relaxed_iterations`]),
     /// within the budget; the cold first plan keeps the scenario's
     /// `solver.relaxed_first_iterations`.
     /// Default 0: from a warm start the relaxed phase often spent its 10
@@ -121,7 +124,7 @@ pub struct GuidanceConfig {
     /// arcs), so most re-plans are flown `usable`. Range 0 to 1000.
     pub replan_relaxed_iterations: usize,
     /// Proximal weight of the re-plans' subproblems
-    /// ([`crate::replan::Planner::warm_proximal_weight`]). Default 0 (see
+    /// ([`crate::guidance::planner::Planner::warm_proximal_weight`]). Default 0 (see
     /// docs/guidance.md for the campaigns with the planner's 0.01).
     /// Range [0, 1e6].
     pub replan_proximal_weight: f64,
@@ -178,7 +181,7 @@ pub struct GuidanceConfig {
     /// to 0.43 m/s.
     pub wind_estimate: bool,
     /// Make the thrust margin soft: plans may use the engine's full range
-    /// where they must, at a cost ([`crate::scenario::SolverSettings::thrust_margin_frac`],
+    /// where they must, at a cost ([`crate::input::scenario::SolverSettings::thrust_margin_frac`],
     /// weight `thrust_margin_weight`), so a vehicle that has fallen
     /// slightly behind its plan on the final burn still gets a re-plan
     /// instead of an infeasible one. False: the margin is a hard limit.
@@ -208,7 +211,7 @@ pub struct GuidanceConfig {
     /// spec at 3). Range [0, 10].
     pub gate_speed_mps: f64,
     /// Weight of the re-plans' soft terminal x and Vx
-    /// ([`crate::scenario::SolverSettings::terminal_lateral_weight`]);
+    /// ([`crate::input::scenario::SolverSettings::terminal_lateral_weight`]);
     /// 0 = hard. In the last seconds a late re-plan can seldom null the
     /// lateral error any more (the pitch dynamics are slow); with hard
     /// terminal x and Vx it failed, and the stale plan flew the vehicle past
@@ -244,7 +247,7 @@ impl Default for GuidanceConfig {
             replan_rate_hz: 2.0,
             replan_max_iterations: 12,
             replan_method: crate::Method::Direct,
-            replan_direct_max_iterations: crate::replan::DIRECT_REPLAN_ITERATIONS,
+            replan_direct_max_iterations: crate::guidance::planner::DIRECT_REPLAN_ITERATIONS,
             replan_relaxed_iterations: 0,
             replan_proximal_weight: 0.0,
             replan_second_order_correction: false,
@@ -274,7 +277,15 @@ impl GuidanceConfig {
     /// Ranges of every field; the error names the field, value and range.
     pub fn validate(&self) -> Result<(), InputError> {
         let check = |field: &str, v: f64, lo: f64, hi: f64, open_lo: bool| {
-            crate::validate::in_range(&format!("guidance.{field}"), v, lo, hi, open_lo, false, "")
+            crate::input::validate::in_range(
+                &format!("guidance.{field}"),
+                v,
+                lo,
+                hi,
+                open_lo,
+                false,
+                "",
+            )
         };
         check("replan_rate_hz", self.replan_rate_hz, 0.0, 100.0, true)?;
         check("deadline_s", self.deadline_s, 0.0, 60.0, false)?;
@@ -285,7 +296,7 @@ impl GuidanceConfig {
             1000.0,
             false,
         )?;
-        crate::validate::count_in_range(
+        crate::input::validate::count_in_range(
             "guidance.replan_direct_max_iterations",
             self.replan_direct_max_iterations,
             (1, 1000),
@@ -297,7 +308,7 @@ impl GuidanceConfig {
             1e12,
             false,
         )?;
-        crate::validate::count_in_range(
+        crate::input::validate::count_in_range(
             "guidance.replan_relaxed_iterations",
             self.replan_relaxed_iterations,
             (0, 1000),
@@ -356,7 +367,11 @@ impl GuidanceConfig {
         check("gate_height_m", self.gate_height_m, 0.0, 50.0, false)?;
         check("gate_speed_mps", self.gate_speed_mps, 0.0, 10.0, false)?;
         if self.replan_nodes != 0 {
-            crate::validate::count_in_range("guidance.replan_nodes", self.replan_nodes, (4, 100))?;
+            crate::input::validate::count_in_range(
+                "guidance.replan_nodes",
+                self.replan_nodes,
+                (4, 100),
+            )?;
         }
         Ok(())
     }
@@ -531,7 +546,7 @@ pub fn fly(
     let mut x0 = lcvx(&measured0);
     x0[ix::DELTA] = x0[ix::DELTA].clamp(-gimbal_max_rad, gimbal_max_rad);
     s0.initial = initial_state(&x0);
-    s0.discretization.final_mass_guess_kg = crate::replan::final_mass_guess(
+    s0.discretization.final_mass_guess_kg = crate::guidance::planner::final_mass_guess(
         None,
         0.0,
         s0.initial.mass_kg,
@@ -788,7 +803,7 @@ fn command(
     measured: &PlantState,
     dt_s: f64,
     feedback: bool,
-    model: &crate::dynamics::Model,
+    model: &crate::problem::dynamics::Model,
 ) -> Command {
     let (mut sigma, _) = plan.flight_controls_at(t_plan_s);
     let (_, mut delta_next) = plan.flight_controls_at(t_plan_s + dt_s);
@@ -898,10 +913,10 @@ const TERMINAL_UPRIGHT_TGO_S: f64 = 2.0;
 ///   [`TERMINAL_PITCH_WN_RADPS`].
 fn terminal_command(
     m: &PlantState,
-    target: &crate::scenario::TerminalState,
+    target: &crate::input::scenario::TerminalState,
     guidance: &GuidanceConfig,
     dt_s: f64,
-    model: &crate::dynamics::Model,
+    model: &crate::problem::dynamics::Model,
 ) -> Command {
     let h = m.z_m - target.z_m;
     let g0 = model.g0_mps2;
@@ -942,7 +957,7 @@ fn fall_without_plan(
     first_plan: Solution,
     initial_mass_kg: f64,
     keep_trace: bool,
-    model: &crate::dynamics::Model,
+    model: &crate::problem::dynamics::Model,
     steady_wind_mps: f64,
 ) -> Flight {
     let mut trace = Vec::new();
@@ -991,15 +1006,16 @@ pub struct SimConfig {
 impl SimConfig {
     /// Parse and validate a configuration.
     pub fn from_toml_str(text: &str) -> Result<Self, InputError> {
-        let c: SimConfig = crate::error::parse_toml(crate::error::FileKind::GuidanceConfig, text)?;
+        let c: SimConfig =
+            crate::input::error::parse_toml(crate::input::error::FileKind::GuidanceConfig, text)?;
         c.validate()?;
         Ok(c)
     }
 
     /// Read, parse and validate a configuration file.
     pub fn from_file(path: &std::path::Path) -> Result<Self, InputError> {
-        Self::from_toml_str(&crate::error::read_text(
-            crate::error::FileKind::GuidanceConfig,
+        Self::from_toml_str(&crate::input::error::read_text(
+            crate::input::error::FileKind::GuidanceConfig,
             path,
         )?)
     }
@@ -1118,7 +1134,7 @@ mod tests {
     #[test]
     fn terminal_descent_lands_at_the_aimed_speed() {
         let mut s = Scenario::paper();
-        s.initial = crate::scenario::InitialState {
+        s.initial = crate::input::scenario::InitialState {
             x_m: 1.5,
             z_m: 12.0,
             vx_mps: 0.0,
@@ -1170,7 +1186,7 @@ mod tests {
     /// [m_dry, m]; without a plan the fallback, within the same bounds.
     #[test]
     fn final_mass_guess_follows_the_plan_and_stays_in_bounds() {
-        use crate::replan::final_mass_guess;
+        use crate::guidance::planner::final_mass_guess;
         let mut p = Planner::new(Scenario::paper(), Default::default());
         p.cold(&mut Silent);
         let plan = p.plan.expect("the paper's case solves");

@@ -9,7 +9,7 @@
 use nalgebra::{Matrix2, Vector2};
 use num_dual::Dual64;
 
-use crate::dynamics::{self, Model};
+use crate::problem::dynamics::{self, Model};
 use crate::sim::{Command, PlantState};
 
 /// A complementary filter on the navigation output's position: the position

@@ -58,7 +58,7 @@ use std::fmt;
 
 use serde::Serialize;
 
-use crate::scenario::Scenario;
+use crate::input::scenario::Scenario;
 
 /// Integration step of the comparison solutions \[s\].
 const STEP_S: f64 = 5e-3;

@@ -60,7 +60,7 @@ use faer::{Accum, ColMut, ColRef, MatMut, MatRef, Par};
 
 use nalgebra::DMatrix;
 
-use crate::nlp::{slot, Nlp, NL, NS};
+use crate::method::direct::nlp::{slot, Nlp, NL, NS};
 
 mod banded;
 
@@ -1246,7 +1246,7 @@ impl KktSolver {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scenario::Scenario;
+    use crate::input::scenario::Scenario;
     use nalgebra::{DMatrix, DVector};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;

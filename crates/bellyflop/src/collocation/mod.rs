@@ -1,0 +1,7 @@
+//! Legendre–Gauss–Radau collocation, shared by every method: the nodes,
+//! weights and differentiation of one interval, the global or hp mesh, and
+//! the controls as they can be flown between the collocation points.
+
+pub mod control_profile;
+pub mod mesh;
+pub mod radau;

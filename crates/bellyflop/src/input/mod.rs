@@ -1,0 +1,8 @@
+//! What the user brings: the scenario (vehicle, environment, boundary
+//! states, discretization), the solver settings, their ranges and
+//! validation, and the typed errors of bad input.
+
+pub mod error;
+pub mod scenario;
+pub mod settings;
+pub mod validate;
