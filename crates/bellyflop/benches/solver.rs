@@ -33,7 +33,7 @@ fn first_subproblem(
     n: usize,
 ) -> (
     Transcription,
-    bellyflop::method::scvx::transcription::Trajectory,
+    bellyflop::collocation::trajectory::Trajectory,
     f64,
 ) {
     let mut s = paper(n);

@@ -4,13 +4,13 @@
 //! (see [`solve`]).
 
 use crate::input::scenario::Scenario;
-use crate::input::settings::{Method, SolverSettings};
+use crate::input::settings::SolverSettings;
 use crate::method::observer::Observer;
-use crate::method::{direct, scvx};
+use crate::method::{self, Start};
 use crate::problem::feasibility;
-use crate::solution::{self, Solution, Status};
+use crate::refine;
+use crate::solution::{Solution, Status};
 use crate::verify::accuracy;
-use crate::{method::direct::nlp, refine};
 
 /// Solve a scenario with the method its settings name
 /// (`solver.method`: SCvx or the direct interior-point method), with
@@ -31,17 +31,40 @@ use crate::{method::direct::nlp, refine};
 /// `solve_time_ms` is the method's own time (the certificate's alone when it
 /// answers; every pass and its error estimate when refining); the
 /// re-integration of step 3 is not counted. The methods on their own
-/// ([`scvx::solve`], [`direct::solve`], and the closed loop's re-plans) skip
-/// all three steps.
+/// ([`method::Solver`], as the closed loop's re-plans call them) skip all
+/// three steps.
 pub fn solve(
     scenario: &Scenario,
     settings: &SolverSettings,
     observer: &mut dyn Observer,
 ) -> Solution {
-    let mut sol = if settings.refinement.tolerance > 0.0 {
-        refine::solve(scenario, settings, observer)
-    } else {
-        solve_on_mesh(scenario, settings, observer)
+    let start = std::time::Instant::now();
+    let refining = settings.refinement.tolerance > 0.0;
+    let mut sol = match feasibility::certify(scenario) {
+        Some(certificate) => {
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            let sol = method::guess_answer(
+                scenario,
+                settings,
+                Status::Infeasible,
+                certificate.to_string(),
+                ms,
+            );
+            if refining {
+                refine::not_started(sol, settings.refinement.tolerance, start)
+            } else {
+                sol
+            }
+        }
+        None => {
+            let mut solver = method::solver(settings.method);
+            let sol = if refining {
+                refine::solve(&mut *solver, scenario, settings, observer)
+            } else {
+                solver.solve(scenario, settings, Start::StraightLine, observer)
+            };
+            not_proven(scenario, sol)
+        }
     };
     if sol.status == Status::Solved {
         accuracy::check(scenario, settings, &mut sol);
@@ -49,33 +72,9 @@ pub fn solve(
     sol
 }
 
-/// Steps 1 and 2 of [`solve`] on the scenario's own mesh.
-pub(crate) fn solve_on_mesh(
-    scenario: &Scenario,
-    settings: &SolverSettings,
-    observer: &mut dyn Observer,
-) -> Solution {
-    solve_on_mesh_keeping_duals(scenario, settings, observer).0
-}
-
-/// [`solve_on_mesh`], and with the direct method the NLP and the
-/// multipliers of its answer (the warm start of refinement's next pass).
-pub(crate) fn solve_on_mesh_keeping_duals(
-    scenario: &Scenario,
-    settings: &SolverSettings,
-    observer: &mut dyn Observer,
-) -> (Solution, Option<(nlp::Nlp, direct::Duals)>) {
-    let start = std::time::Instant::now();
-    if let Some(certificate) = feasibility::certify(scenario) {
-        return (certified(scenario, settings, &certificate, start), None);
-    }
-    let (mut sol, duals) = match settings.method {
-        Method::Scvx => (scvx::solve(scenario, settings, observer), None),
-        Method::Direct => {
-            let (sol, nlp, duals) = direct::solve_keeping_duals(scenario, settings, observer);
-            (sol, Some((nlp, duals)))
-        }
-    };
+/// Step 2 of [`solve`]: a method's local infeasibility, without a
+/// certificate, is `not_converged`, with the method's reason.
+fn not_proven(scenario: &Scenario, mut sol: Solution) -> Solution {
     if sol.status == Status::Infeasible {
         sol.status = Status::NotConverged;
         sol.message = format!(
@@ -85,32 +84,5 @@ pub(crate) fn solve_on_mesh_keeping_duals(
             sol.message
         );
     }
-    (sol, duals)
-}
-
-/// The answer for a certified-infeasible scenario: status `infeasible`, the
-/// certificate as the message, and the straight-line guess as the trajectory
-/// (no iterations).
-fn certified(
-    scenario: &Scenario,
-    settings: &SolverSettings,
-    certificate: &feasibility::Certificate,
-    start: std::time::Instant,
-) -> Solution {
-    let tr = scvx::transcription::Transcription::new(scenario, settings);
-    let d = &scenario.discretization;
-    let guess = scvx::straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
-    let checks = solution::check(&tr, &guess, 0.0);
-    let ms = start.elapsed().as_secs_f64() * 1e3;
-    let mut sol = Solution::new(
-        &tr,
-        guess,
-        Status::Infeasible,
-        certificate.to_string(),
-        checks,
-        Vec::new(),
-        ms,
-    );
-    sol.method = settings.method;
     sol
 }

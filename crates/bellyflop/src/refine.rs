@@ -30,19 +30,18 @@
 //! Refinement stops at the tolerance, at `max_passes`, or when the point
 //! budget leaves no room for a finer mesh ([`Stop`]).
 //!
-//! Each pass starts warm: the previous answer carried onto the new mesh by
-//! its state and control polynomials ([`Nlp::interpolate_from`]) and its
-//! multipliers by their densities over the quadrature weights
-//! ([`Nlp::interpolate_duals_from`]), at μ_0 = [`WARM_PD_MU`] (SCvx solves
-//! each pass cold).
+//! Each pass starts from the last one's answer ([`Start::Answer`]): the
+//! direct method carries it onto the new mesh by its state and control
+//! polynomials and its multipliers by their densities over the quadrature
+//! weights, at μ_0 = [`crate::method::direct::solver::WARM_PD_MU`]; SCvx
+//! solves each pass cold.
 
 use crate::collocation::control_profile::{activity, Activity};
 use crate::collocation::mesh::{Mesh, MeshLayout};
 use crate::input::scenario::Scenario;
-use crate::input::settings::{Method, RefinementSettings, SolverSettings};
-use crate::method::direct;
-use crate::method::direct::nlp::Nlp;
+use crate::input::settings::{RefinementSettings, SolverSettings};
 use crate::method::observer::Observer;
+use crate::method::{Solver, Start};
 use crate::problem::dynamics::Model;
 pub use crate::solution::{Pass, Refinement, Stop};
 use crate::solution::{Solution, Status};
@@ -51,10 +50,12 @@ use crate::verify::mesh_error;
 /// Solve `scenario` and refine its mesh until every interval's relative
 /// error is at most `settings.refinement.tolerance` (which must be > 0).
 /// Returns the last accepted pass's answer, with its [`Refinement`] record;
-/// its iterations and time count every pass and estimate. Like
-/// [`crate::solve`]'s steps 1 and 2, it does not re-integrate the landing
-/// (the caller's [`crate::verify::accuracy::check`] does).
+/// its iterations and time count every pass and estimate. Each pass is
+/// `solver`'s, the first from the straight line and every later one from
+/// the last answer. Like a method alone, it neither certifies nor
+/// re-integrates the landing (the caller, [`crate::solve`], does).
 pub fn solve(
+    solver: &mut dyn Solver,
     scenario: &Scenario,
     settings: &SolverSettings,
     observer: &mut dyn Observer,
@@ -63,8 +64,7 @@ pub fn solve(
     let rs = &settings.refinement;
     let model = Model::new(&scenario.vehicle, &scenario.environment);
     let mut current = scenario.clone();
-    let (mut sol, mut duals) =
-        crate::pipeline::solve_on_mesh_keeping_duals(&current, settings, observer);
+    let mut sol = solver.solve(&current, settings, Start::StraightLine, observer);
     let mut passes = Vec::new();
     let mut iterations = 0;
     let mut event_breaks: Vec<Event> = Vec::new();
@@ -111,14 +111,13 @@ pub fn solve(
         refined.discretization.nodes = next.nodes();
         refined.discretization.intervals = next.intervals();
         refined.discretization.mesh = Some(next);
-        let (answer, answer_duals) = solve_warm(&sol, duals.as_ref(), &refined, settings, observer);
+        let answer = solver.solve(&refined, settings, Start::Answer(&sol), observer);
         if answer.status != Status::Solved {
             iterations += answer.iterations;
             break Stop::SolveFailed;
         }
         current = refined;
         sol = answer;
-        duals = answer_duals;
         event_breaks = placed;
     };
     sol.iterations = iterations;
@@ -132,57 +131,19 @@ pub fn solve(
     sol
 }
 
-/// One pass on `to`'s mesh, warm from `prev` (an answer on another mesh)
-/// with the direct method: primal–dual from the multipliers of `prev`'s NLP
-/// when it has them, at μ_0 = [`WARM_PD_MU`]; primal only at
-/// [`direct::WARM_MU`] otherwise, or when the primal–dual start fails. SCvx
-/// solves each pass cold.
-fn solve_warm(
-    prev: &Solution,
-    prev_duals: Option<&(Nlp, direct::Duals)>,
-    to: &Scenario,
-    settings: &SolverSettings,
-    observer: &mut dyn Observer,
-) -> (Solution, Option<(Nlp, direct::Duals)>) {
-    match settings.method {
-        Method::Scvx => (crate::pipeline::solve_on_mesh(to, settings, observer), None),
-        Method::Direct => {
-            let nlp = Nlp::new(to, settings);
-            let w0 = nlp.interpolate_from(prev);
-            let mut warm = settings.clone();
-            let primal_dual = prev_duals.map(|(from, duals)| {
-                let duals = nlp.interpolate_duals_from(from, duals);
-                warm.direct.mu_init = WARM_PD_MU;
-                let start = direct::Start::PrimalDual(&w0, &duals);
-                direct::solve_from_start(to, &warm, &nlp, start, observer)
-            });
-            let (sol, duals) = match primal_dual {
-                Some((sol, duals)) if sol.status == Status::Solved => (sol, duals),
-                tried => {
-                    // The primal start, with the failed attempt's work counted.
-                    warm.direct.mu_init = direct::WARM_MU;
-                    let start = direct::Start::Primal(&w0, None);
-                    let (mut sol, duals) =
-                        direct::solve_from_start(to, &warm, &nlp, start, observer);
-                    if let Some((failed, _)) = tried {
-                        sol.iterations += failed.iterations;
-                        sol.solve_time_ms += failed.solve_time_ms;
-                    }
-                    (sol, duals)
-                }
-            };
-            (sol, Some((nlp, duals)))
-        }
-    }
+/// The record of a refinement that never solved a pass (its scenario was
+/// certified infeasible before any method ran): no passes, stopped as
+/// [`Stop::SolveFailed`], with `sol`'s iterations.
+pub fn not_started(mut sol: Solution, tolerance: f64, start: std::time::Instant) -> Solution {
+    sol.refinement = Some(Refinement {
+        tolerance,
+        stop: Stop::SolveFailed,
+        passes: Vec::new(),
+        total_time_ms: start.elapsed().as_secs_f64() * 1e3,
+    });
+    sol.solve_time_ms = start.elapsed().as_secs_f64() * 1e3;
+    sol
 }
-
-/// μ_0 of a primal–dual warm pass. Measured on the paper's case and 20
-/// envelope states (refined to 1e-6): warm passes took a median of 25
-/// interior-point iterations from the primal start at μ_0 = 1e-4, 19 from
-/// the primal–dual start at 1e-6, 14 at 1e-8 (the same meshes and optima:
-/// 34 % less time in all) and 11 at 1e-9 (no faster in all, and one state
-/// took another mesh path).
-pub const WARM_PD_MU: f64 = 1e-8;
 
 /// A place where the mesh wants a break: a switch of T or χ between its
 /// bounds, or the entry or exit of an arc on a bound.

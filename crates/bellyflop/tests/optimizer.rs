@@ -444,7 +444,7 @@ fn second_order_correction_removes_the_linearization_error() {
     let tr = Transcription::new(&s.scenario, &s.solver);
     let data = tr.assemble(&plan.trajectory, 0.05, 0.0);
     let sub = tr.solve(&data).expect("subproblem solves");
-    let max_defect = |t: &bellyflop::method::scvx::transcription::Trajectory| {
+    let max_defect = |t: &bellyflop::collocation::trajectory::Trajectory| {
         tr.defects(t)
             .iter()
             .flatten()

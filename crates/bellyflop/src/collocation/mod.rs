@@ -3,5 +3,9 @@
 //! the controls as they can be flown between the collocation points.
 
 pub mod control_profile;
+pub mod interpolation;
 pub mod mesh;
+pub mod plan;
 pub mod radau;
+pub mod scaling;
+pub mod trajectory;

@@ -4,4 +4,5 @@
 
 pub mod accuracy;
 pub mod mesh_error;
+pub mod ode;
 pub mod propagate;

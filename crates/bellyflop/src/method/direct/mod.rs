@@ -23,6 +23,7 @@
 
 pub mod kkt;
 pub mod nlp;
+pub mod solver;
 
 use std::time::Instant;
 
@@ -1648,7 +1649,7 @@ mod mesh_tests {
     }
 
     /// With its multipliers carried too (primal–dual, at
-    /// [`crate::refine::WARM_PD_MU`]) the 4×5 answer converges on 8×5 in
+    /// [`crate::method::direct::solver::WARM_PD_MU`]) the 4×5 answer converges on 8×5 in
     /// fewer iterations than from its states and controls alone (at
     /// [`WARM_MU`]), to the same optimum.
     #[test]
@@ -1663,7 +1664,7 @@ mod mesh_tests {
         let w0 = nlp.interpolate_from(&from);
         settings.direct.mu_init = WARM_MU;
         let primal = solve_from(&fine, &settings, &nlp, &w0, None, &mut Silent);
-        settings.direct.mu_init = crate::refine::WARM_PD_MU;
+        settings.direct.mu_init = crate::method::direct::solver::WARM_PD_MU;
         let carried = nlp.interpolate_duals_from(&from_nlp, &duals);
         let start = Start::PrimalDual(&w0, &carried);
         let (pd, _) = solve_from_start(&fine, &settings, &nlp, start, &mut Silent);

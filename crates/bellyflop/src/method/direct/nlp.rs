@@ -23,8 +23,8 @@
 use num_dual::Dual2SVec64;
 
 use crate::collocation::mesh::Mesh;
+use crate::collocation::scaling::Scaling;
 use crate::input::scenario::{Formulation, Scenario, SolverSettings};
-use crate::method::scvx::transcription::Scaling;
 use crate::problem::dynamics::{self, Model};
 
 /// States of P2 at a node: x, z, Vx, Vz, θ, w, m, δ.
@@ -525,7 +525,7 @@ impl Nlp {
 
     /// The scaled vector as a trajectory of the exact LCvx formulation
     /// (ω = ln m, σ = T/m, χ), which [`crate::solution::Solution`] reports.
-    pub fn to_trajectory(&self, w: &[f64]) -> crate::method::scvx::transcription::Trajectory {
+    pub fn to_trajectory(&self, w: &[f64]) -> crate::collocation::trajectory::Trajectory {
         use crate::problem::dynamics::{ix, NU_MAX, NX};
         let x: Vec<[f64; NX]> = (0..=self.n)
             .map(|k| {
@@ -546,7 +546,7 @@ impl Nlp {
                 u
             })
             .collect();
-        crate::method::scvx::transcription::Trajectory {
+        crate::collocation::trajectory::Trajectory {
             x,
             u,
             tf_s: self.tf_s(w),
@@ -555,7 +555,7 @@ impl Nlp {
 
     /// The scaled vector of an exact-formulation trajectory (the inverse of
     /// [`Nlp::to_trajectory`]), for warm starts from an earlier plan.
-    pub fn from_trajectory(&self, t: &crate::method::scvx::transcription::Trajectory) -> Vec<f64> {
+    pub fn from_trajectory(&self, t: &crate::collocation::trajectory::Trajectory) -> Vec<f64> {
         use crate::problem::dynamics::ix;
         let mut w = vec![0.0; self.n_var()];
         for k in 0..=self.n {

@@ -9,6 +9,7 @@
 use std::time::Instant;
 
 pub mod conic;
+pub mod solver;
 mod subproblem;
 pub mod transcription;
 
