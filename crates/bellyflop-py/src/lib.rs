@@ -14,6 +14,7 @@ use bellyflop::sim::RunOutcome;
 use bellyflop::verify::propagate::Interpolation;
 // The Python `Scenario` is a whole scenario file: the problem and its
 // `[solver]` settings (bellyflop::Case).
+use bellyflop::input::overrides::Overrides;
 use bellyflop::output::report;
 use bellyflop::{Case as CoreScenario, Formulation, Method};
 use numpy::PyArray1;
@@ -488,24 +489,19 @@ impl Flight {
 }
 
 fn parse_method(s: &str) -> PyResult<Method> {
-    match s {
-        "direct" => Ok(Method::Direct),
-        "scvx" => Ok(Method::Scvx),
-        _ => Err(InputError::new_err(format!(
+    s.parse().map_err(|_| {
+        InputError::new_err(format!(
             "method = {s:?} is not a method: allowed \"direct\" or \"scvx\""
-        ))),
-    }
+        ))
+    })
 }
 
 fn parse_formulation(s: &str) -> PyResult<Formulation> {
-    match s {
-        "exact" => Ok(Formulation::Exact),
-        "paper" => Ok(Formulation::Paper),
-        "vector" => Ok(Formulation::Vector),
-        _ => Err(InputError::new_err(format!(
+    s.parse().map_err(|_| {
+        InputError::new_err(format!(
             "formulation = {s:?} is not a formulation: allowed \"exact\", \"paper\" or \"vector\""
-        ))),
-    }
+        ))
+    })
 }
 
 fn parse_interpolation(s: &str) -> PyResult<Interpolation> {
@@ -532,28 +528,17 @@ fn solve(
     interpolation: &str,
     mesh_tolerance: Option<f64>,
 ) -> PyResult<Solution> {
-    let mut s = scenario.inner.clone();
-    if nodes.is_some() || intervals.is_some() {
-        // Uniform mesh of the given counts, in place of an explicit one.
-        s.scenario.discretization.mesh = None;
-    }
-    if let Some(n) = nodes {
-        s.scenario.discretization.nodes = n;
-    }
-    if let Some(m) = intervals {
-        s.scenario.discretization.intervals = m;
-    }
-    if let Some(f) = formulation {
-        s.solver.formulation = parse_formulation(f)?;
-    }
-    if let Some(m) = method {
-        s.solver.method = parse_method(m)?;
-    }
-    if let Some(tol) = mesh_tolerance {
-        s.solver.refinement.tolerance = tol;
-    }
+    let overrides = Overrides {
+        nodes,
+        intervals,
+        formulation: formulation.map(parse_formulation).transpose()?,
+        method: method.map(parse_method).transpose()?,
+        mesh_tolerance,
+    };
     let interpolation = parse_interpolation(interpolation)?;
-    s.validate().map_err(input_error)?;
+    let s = overrides
+        .apply(scenario.inner.clone())
+        .map_err(input_error)?;
     let (value, core_ms) = detached(py, move || {
         let start = Instant::now();
         let solution = s.solve(&mut bellyflop::method::scvx::Silent);

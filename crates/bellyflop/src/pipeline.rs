@@ -3,7 +3,7 @@
 //! check of the answer against the nonlinear model. Statuses are claims
 //! (see [`solve`]).
 
-use crate::input::scenario::Scenario;
+use crate::input::scenario::{Case, Scenario};
 use crate::input::settings::SolverSettings;
 use crate::method::observer::Observer;
 use crate::method::{self, Start};
@@ -70,6 +70,14 @@ pub fn solve(
         accuracy::check(scenario, settings, &mut sol);
     }
     sol
+}
+
+impl Case {
+    /// Solve with [`solve`] (the pipeline adds this to the input type, which
+    /// does not depend on the pipeline).
+    pub fn solve(&self, observer: &mut dyn Observer) -> Solution {
+        solve(&self.scenario, &self.solver, observer)
+    }
 }
 
 /// Step 2 of [`solve`]: a method's local infeasibility, without a

@@ -245,11 +245,6 @@ impl Case {
         self.scenario.validate()?;
         self.solver.validate()
     }
-
-    /// Solve with [`crate::solve`].
-    pub fn solve(&self, observer: &mut dyn crate::Observer) -> crate::Solution {
-        crate::solve(&self.scenario, &self.solver, observer)
-    }
 }
 
 /// The paper's case, as shipped in `scenarios/paper.toml`.

@@ -38,6 +38,10 @@ pub enum Method {
 }
 
 impl Method {
+    /// Every method, in the order the documentation lists them.
+    pub const ALL: [Method; 2] = [Method::Scvx, Method::Direct];
+
+    /// The method's name in a scenario file and in the JSON.
     pub fn as_str(self) -> &'static str {
         match self {
             Method::Scvx => "scvx",
@@ -46,7 +50,49 @@ impl Method {
     }
 }
 
-/// SCvx settings (Section 3.4, with the trust-region rule of Mao et al. 2016).
+impl std::str::FromStr for Method {
+    type Err = String;
+    /// A method by its name ([`Method::as_str`]).
+    fn from_str(s: &str) -> Result<Self, String> {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.as_str() == s)
+            .ok_or_else(|| format!("unknown method {s:?}: expected \"scvx\" or \"direct\""))
+    }
+}
+
+impl Formulation {
+    /// Every formulation, in the order the documentation lists them.
+    pub const ALL: [Formulation; 3] = [Formulation::Exact, Formulation::Paper, Formulation::Vector];
+
+    /// The formulation's name in a scenario file and in the JSON.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Formulation::Exact => "exact",
+            Formulation::Paper => "paper",
+            Formulation::Vector => "vector",
+        }
+    }
+}
+
+impl std::str::FromStr for Formulation {
+    type Err = String;
+    /// A formulation by its name ([`Formulation::as_str`]).
+    fn from_str(s: &str) -> Result<Self, String> {
+        Formulation::ALL
+            .into_iter()
+            .find(|f| f.as_str() == s)
+            .ok_or_else(|| {
+                format!("unknown formulation {s:?}: expected \"exact\", \"paper\" or \"vector\"")
+            })
+    }
+}
+
+/// How a scenario is solved (`[solver]`): the method, the formulation, the
+/// landing tolerances and mesh refinement, which every method reads; SCvx's
+/// own settings (Section 3.4, with the trust-region rule of Mao et al. 2016)
+/// in place, for the scenario files' sake; the direct method's in
+/// [`DirectSettings`] (`[solver.direct]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SolverSettings {
