@@ -9,10 +9,10 @@
 use std::path::{Path, PathBuf};
 
 use bellyflop::guidance::{Flight, ReplanOutcome};
+use bellyflop::output::campaign::RunRow;
 use plotters::prelude::*;
 
-use crate::montecarlo::RunRow;
-use crate::output::OutputError;
+use crate::error::OutputError;
 use crate::plot::{fonts, plot_error, Res, FONT};
 
 const BLUE: RGBColor = RGBColor(31, 90, 180);

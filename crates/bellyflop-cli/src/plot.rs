@@ -23,7 +23,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{register_font, FontStyle};
 
-use crate::output::OutputError;
+use crate::error::OutputError;
 use crate::sample::Dense;
 
 /// Font family name the plots ask for (registered in [`fonts`]).
@@ -153,10 +153,7 @@ pub(crate) fn fonts() {
 pub(crate) type Res<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
 pub(crate) fn plot_error(path: &Path, e: impl std::fmt::Display) -> OutputError {
-    OutputError::Plot {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    }
+    OutputError::plot(path, e)
 }
 
 /// Draw every plot as `DIR/NAME.svg` and `DIR/NAME.png`; return the paths.
