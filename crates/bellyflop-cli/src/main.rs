@@ -11,7 +11,6 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod args;
-mod campaign_plot;
 mod error;
 mod exit;
 mod init;

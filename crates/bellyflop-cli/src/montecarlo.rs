@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use serde_json::Value;
 
 use crate::error::OutputError;
-use crate::{campaign_plot, exit, load, output};
+use crate::{exit, load, output, plot};
 
 #[derive(clap::Args)]
 pub struct MonteCarloArgs {
@@ -214,6 +214,6 @@ fn write(
     let path = dir.join("summary.json");
     std::fs::write(&path, format!("{s}\n")).map_err(|e| OutputError::io(&path, e))?;
     files.push(path);
-    files.extend(campaign_plot::campaign(dir, rows, &case.scenario.name)?);
+    files.extend(plot::campaign(dir, rows, &case.scenario.name)?);
     Ok(files)
 }

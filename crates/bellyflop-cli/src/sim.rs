@@ -11,7 +11,7 @@ use serde_json::Value;
 
 use crate::error::OutputError;
 use crate::sample::Dense;
-use crate::{campaign_plot, exit, load, output};
+use crate::{exit, load, output, plot};
 
 #[derive(clap::Args, Default)]
 pub struct SimArgs {
@@ -210,6 +210,6 @@ fn write(
     std::fs::write(&path, format!("{v}\n")).map_err(|e| OutputError::io(&path, e))?;
     files.push(path);
 
-    files.extend(campaign_plot::timeline(dir, f)?);
+    files.extend(plot::timeline(dir, f)?);
     Ok(files)
 }
