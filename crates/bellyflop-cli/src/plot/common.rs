@@ -4,6 +4,7 @@
 use std::ops::Range;
 use std::sync::Once;
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 
@@ -40,6 +41,9 @@ pub(super) fn fonts() {
         }
     });
 }
+
+/// A chart of two f64 axes (metres, seconds, plot units).
+pub(super) type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 pub(super) type Res<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 

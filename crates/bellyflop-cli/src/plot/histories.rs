@@ -7,7 +7,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::FontStyle;
 
 use super::common::{
-    min_max, padded, text, tick, Res, BREAK, FONT, GREY, OVERLAY, SOLUTION, SWITCH,
+    min_max, padded, text, tick, Chart, Res, BREAK, FONT, GREY, OVERLAY, SOLUTION, SWITCH,
 };
 use super::data::PlotData;
 use crate::sample::Dense;
@@ -149,6 +149,25 @@ fn draw_history<DB: DrawingBackend>(
         .y_label_formatter(&|v| tick(*v))
         .draw()?;
 
+    draw_marks(&mut chart, d, &shown, t_range.end)?;
+    draw_curves(&mut chart, d, &y, &y_nodes, y_over.as_deref())?;
+    if let Some(note) = h.note {
+        draw_note(&mut chart, note)?;
+    }
+    if legend {
+        draw_legend(&mut chart, d)?;
+    }
+    Ok(())
+}
+
+/// The vertical lines of the mesh breaks and thrust switches, and the bounds
+/// shown (up to `t_end`) with their names.
+fn draw_marks<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    d: &PlotData,
+    shown: &[(f64, &str)],
+    t_end: f64,
+) -> Res<DB> {
     // Mesh interval breaks: a thin solid line in every panel.
     for &tb in &d.breaks_s {
         let yr = chart.y_range();
@@ -167,18 +186,30 @@ fn draw_history<DB: DrawingBackend>(
             SWITCH.stroke_width(1),
         ))?;
     }
-    for (b, name) in &shown {
+    for (b, name) in shown {
         chart.draw_series(DashedLineSeries::new(
-            vec![(0.0, *b), (t_range.end, *b)],
+            vec![(0.0, *b), (t_end, *b)],
             6,
             4,
             GREY.stroke_width(1),
         ))?;
         chart.draw_series(std::iter::once(
-            EmptyElement::at((t_range.end, *b))
+            EmptyElement::at((t_end, *b))
                 + Text::new(name.to_string(), (-48, -16), text(12.0).color(&GREY)),
         ))?;
     }
+    Ok(())
+}
+
+/// The interpolant, the nodes and the overlay (dashed), each with its
+/// legend entry.
+fn draw_curves<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    d: &PlotData,
+    y: &[f64],
+    y_nodes: &[f64],
+    y_over: Option<&[f64]>,
+) -> Res<DB> {
     chart
         .draw_series(LineSeries::new(
             d.dense.t_s.iter().copied().zip(y.iter().copied()),
@@ -191,12 +222,12 @@ fn draw_history<DB: DrawingBackend>(
             d.nodes
                 .t_s
                 .iter()
-                .zip(&y_nodes)
+                .zip(y_nodes)
                 .map(|(&t, &v)| Circle::new((t, v), 3, SOLUTION.filled())),
         )?
         .label("LGR nodes")
         .legend(|(x, y)| Circle::new((x + 11, y), 3, SOLUTION.filled()));
-    if let (Some(o), Some(yo)) = (d.overlay, &y_over) {
+    if let (Some(o), Some(yo)) = (d.overlay, y_over) {
         chart
             .draw_series(DashedLineSeries::new(
                 o.t_s.iter().copied().zip(yo.iter().copied()),
@@ -207,47 +238,50 @@ fn draw_history<DB: DrawingBackend>(
             .label("re-integrated (dashed)")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], OVERLAY.stroke_width(2)));
     }
-    if let Some(note) = h.note {
-        let (xr, yr) = (chart.x_range(), chart.y_range());
-        // Upper left, one line per `;`-separated part: clear of the bounds
-        // and, for a thrust that starts low, of the data.
-        for (i, part) in note.split(';').enumerate() {
-            chart.draw_series(std::iter::once(
-                EmptyElement::at((xr.start, yr.start + 0.7 * (yr.end - yr.start)))
-                    + Text::new(
-                        part.trim().to_string(),
-                        (8, 16 * i as i32),
-                        text(12.0)
-                            .color(&GREY)
-                            .pos(Pos::new(HPos::Left, VPos::Center)),
-                    ),
-            ))?;
-        }
+    Ok(())
+}
+
+/// A remark in the upper left of the panel.
+fn draw_note<'a, DB: DrawingBackend + 'a>(chart: &mut Chart<'a, DB>, note: &str) -> Res<DB> {
+    let (xr, yr) = (chart.x_range(), chart.y_range());
+    // Upper left, one line per `;`-separated part: clear of the bounds
+    // and, for a thrust that starts low, of the data.
+    for (i, part) in note.split(';').enumerate() {
+        chart.draw_series(std::iter::once(
+            EmptyElement::at((xr.start, yr.start + 0.7 * (yr.end - yr.start)))
+                + Text::new(
+                    part.trim().to_string(),
+                    (8, 16 * i as i32),
+                    text(12.0)
+                        .color(&GREY)
+                        .pos(Pos::new(HPos::Left, VPos::Center)),
+                ),
+        ))?;
     }
-    if legend {
-        if !d.breaks_s.is_empty() {
-            chart
-                .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
-                .label("mesh interval break")
-                .legend(|(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 22, y)], BREAK.stroke_width(1))
-                });
-        }
-        if !d.switches.is_empty() {
-            chart
-                .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
-                .label("thrust switch")
-                .legend(|(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 22, y)], SWITCH.stroke_width(1))
-                });
-        }
+    Ok(())
+}
+
+/// The legend of the first panel: the curves, and the breaks and switches
+/// when there are any.
+fn draw_legend<'a, DB: DrawingBackend + 'a>(chart: &mut Chart<'a, DB>, d: &PlotData) -> Res<DB> {
+    if !d.breaks_s.is_empty() {
         chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font(text(12.0))
-            .background_style(WHITE.mix(0.9))
-            .border_style(GREY)
-            .draw()?;
+            .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
+            .label("mesh interval break")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], BREAK.stroke_width(1)));
     }
+    if !d.switches.is_empty() {
+        chart
+            .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
+            .label("thrust switch")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], SWITCH.stroke_width(1)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(text(12.0))
+        .background_style(WHITE.mix(0.9))
+        .border_style(GREY)
+        .draw()?;
     Ok(())
 }

@@ -11,6 +11,48 @@ use super::common::{
 };
 use super::data::PlotData;
 
+/// Rows of the column, in pixels.
+const LINE_H: i32 = 24;
+/// Where a legend entry's glyph and its text start, in pixels.
+const GLYPH_X: i32 = 4;
+const TEXT_X: i32 = 44;
+
+/// The right-hand column, written top to bottom: `y` is the next row.
+struct Column<'a, DB: DrawingBackend> {
+    area: &'a DrawingArea<DB, Shift>,
+    y: i32,
+}
+
+impl<DB: DrawingBackend> Column<'_, DB> {
+    /// A bold heading at the left edge, with some room below it.
+    fn heading(&mut self, title: &str) -> Res<DB> {
+        let head = (FONT, 17.0)
+            .into_font()
+            .style(FontStyle::Bold)
+            .color(&BLACK);
+        self.area.draw(&Text::new(title, (0, self.y), head))?;
+        self.y += LINE_H + 6;
+        Ok(())
+    }
+
+    /// A legend entry: its glyph (drawn at the row's height), then its text.
+    fn entry(&mut self, glyph: &dyn Fn(i32) -> Res<DB>, label: String) -> Res<DB> {
+        glyph(self.y)?;
+        self.text(TEXT_X, label)
+    }
+
+    /// A line of text starting at `x`.
+    fn text(&mut self, x: i32, label: String) -> Res<DB> {
+        self.area.draw(&Text::new(
+            label,
+            (x, self.y),
+            text(15.0).pos(Pos::new(HPos::Left, VPos::Center)),
+        ))?;
+        self.y += LINE_H;
+        Ok(())
+    }
+}
+
 /// The legend and a summary of the trajectory, in the right-hand column.
 pub(super) fn draw_path_info<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
@@ -18,81 +60,75 @@ pub(super) fn draw_path_info<DB: DrawingBackend>(
     flame_at_max_m: f64,
     ground_m: f64,
 ) -> Res<DB> {
-    let v = &d.scenario.vehicle;
-    let dense = d.dense;
     let area = &area.margin(40, 10, 10, 10);
-    let line_h = 24;
-    let mut y = 10;
-    let head = (FONT, 17.0)
-        .into_font()
-        .style(FontStyle::Bold)
-        .color(&BLACK);
-    let body = text(15.0);
-    area.draw(&Text::new("Legend", (0, y), head.clone()))?;
-    y += line_h + 6;
-    let glyph_x = 4;
-    let text_x = 44;
-    let entry = |y: i32, glyph: &dyn Fn(i32) -> Res<DB>, label: String| -> Res<DB> {
-        glyph(y)?;
-        area.draw(&Text::new(
-            label,
-            (text_x, y),
-            body.clone().pos(Pos::new(HPos::Left, VPos::Center)),
-        ))
-    };
+    let mut column = Column { area, y: 10 };
+    column.heading("Legend")?;
+    draw_legend(&mut column, d, flame_at_max_m, ground_m)?;
+    column.y += LINE_H;
+    column.heading("Summary")?;
+    for l in summary_lines(d) {
+        column.text(0, l)?;
+    }
+    Ok(())
+}
+
+/// The legend's entries: the paths, the nodes, the vehicle, its thrust, the
+/// switches, the target and the ground.
+fn draw_legend<DB: DrawingBackend>(
+    column: &mut Column<DB>,
+    d: &PlotData,
+    flame_at_max_m: f64,
+    ground_m: f64,
+) -> Res<DB> {
+    let v = &d.scenario.vehicle;
+    let area = column.area;
     let line = |color: RGBColor, width: u32| {
         move |y: i32| -> Res<DB> {
             area.draw(&PathElement::new(
-                vec![(glyph_x, y), (glyph_x + 30, y)],
+                vec![(GLYPH_X, y), (GLYPH_X + 30, y)],
                 color.stroke_width(width),
             ))
         }
     };
-    entry(
-        y,
-        &line(SOLUTION, 2),
-        "path of the centre of mass (CG)".into(),
-    )?;
-    y += line_h;
-    entry(
-        y,
-        &|y| area.draw(&Circle::new((glyph_x + 15, y), 3, SOLUTION.filled())),
+    // Two short strokes: the look of a dashed line.
+    let dashed = |style: ShapeStyle, gap: (i32, i32)| {
+        move |y: i32| -> Res<DB> {
+            area.draw(&PathElement::new(
+                vec![(GLYPH_X, y), (GLYPH_X + gap.0, y)],
+                style,
+            ))?;
+            area.draw(&PathElement::new(
+                vec![(GLYPH_X + gap.1, y), (GLYPH_X + 30, y)],
+                style,
+            ))
+        }
+    };
+    column.entry(&line(SOLUTION, 2), "path of the centre of mass (CG)".into())?;
+    column.entry(
+        &|y| area.draw(&Circle::new((GLYPH_X + 15, y), 3, SOLUTION.filled())),
         format!("LGR nodes ({})", d.nodes.len()),
     )?;
-    y += line_h;
     if d.overlay.is_some() {
-        entry(
-            y,
-            &|y| {
-                area.draw(&PathElement::new(
-                    vec![(glyph_x, y), (glyph_x + 10, y)],
-                    OVERLAY.stroke_width(2),
-                ))?;
-                area.draw(&PathElement::new(
-                    vec![(glyph_x + 18, y), (glyph_x + 30, y)],
-                    OVERLAY.stroke_width(2),
-                ))
-            },
+        column.entry(
+            &dashed(OVERLAY.stroke_width(2), (10, 18)),
             "re-integrated trajectory (dashed), × its end".into(),
         )?;
-        y += line_h;
     }
-    entry(
-        y,
+    column.entry(
         &|y| {
             area.draw(&Rectangle::new(
-                [(glyph_x, y - 5), (glyph_x + 24, y + 5)],
+                [(GLYPH_X, y - 5), (GLYPH_X + 24, y + 5)],
                 RGBColor(200, 212, 230).filled(),
             ))?;
             area.draw(&Rectangle::new(
-                [(glyph_x, y - 5), (glyph_x + 24, y + 5)],
+                [(GLYPH_X, y - 5), (GLYPH_X + 24, y + 5)],
                 BODY.stroke_width(1),
             ))?;
             area.draw(&Polygon::new(
                 vec![
-                    (glyph_x + 24, y - 5),
-                    (glyph_x + 32, y),
-                    (glyph_x + 24, y + 5),
+                    (GLYPH_X + 24, y - 5),
+                    (GLYPH_X + 32, y),
+                    (GLYPH_X + 24, y + 5),
                 ],
                 BODY.filled(),
             ))
@@ -104,63 +140,41 @@ pub(super) fn draw_path_info<DB: DrawingBackend>(
             v.cg_m
         ),
     )?;
-    y += line_h;
-    area.draw(&Text::new(
-        "above the engine, drawn at the CG point",
-        (text_x, y),
-        body.clone().pos(Pos::new(HPos::Left, VPos::Center)),
-    ))?;
-    y += line_h;
-    entry(
-        y,
+    column.text(TEXT_X, "above the engine, drawn at the CG point".into())?;
+    column.entry(
         &line(FLAME, 4),
         format!("thrust along the nozzle, length ∝ T ({flame_at_max_m:.0} m"),
     )?;
-    y += line_h;
-    area.draw(&Text::new(
+    column.text(
+        TEXT_X,
         format!(
             "at T_max = {:.0} kN; T_min = {:.0} kN)",
             v.max_thrust_n / 1e3,
             v.min_thrust_n / 1e3
         ),
-        (text_x, y),
-        body.clone().pos(Pos::new(HPos::Left, VPos::Center)),
-    ))?;
-    y += line_h;
-    entry(
-        y,
-        &|y| area.draw(&TriangleMarker::new((glyph_x + 15, y), 9, SWITCH.filled())),
+    )?;
+    column.entry(
+        &|y| area.draw(&TriangleMarker::new((GLYPH_X + 15, y), 9, SWITCH.filled())),
         "thrust switch".into(),
     )?;
-    y += line_h;
-    entry(
-        y,
-        &|y| {
-            area.draw(&PathElement::new(
-                vec![(glyph_x, y), (glyph_x + 12, y)],
-                GREY.stroke_width(1),
-            ))?;
-            area.draw(&PathElement::new(
-                vec![(glyph_x + 18, y), (glyph_x + 30, y)],
-                GREY.stroke_width(1),
-            ))
-        },
+    column.entry(
+        &dashed(GREY.stroke_width(1), (12, 18)),
         format!(
             "target altitude of the CG, z_f = {} m",
             tick(d.scenario.terminal.z_m)
         ),
     )?;
-    y += line_h;
-    entry(
-        y,
+    column.entry(
         &line(GROUND, 3),
         format!("ground: engine at touchdown, z = {} m", tick(ground_m)),
-    )?;
-    y += 2 * line_h;
+    )
+}
 
-    // Summary.
-    area.draw(&Text::new("Summary", (0, y), head))?;
-    y += line_h + 6;
+/// The summary's lines: status, t_f, mass, the flip, the switches, the
+/// extremes of the controls, the touchdown and, with an overlay, its miss.
+fn summary_lines(d: &PlotData) -> Vec<String> {
+    let v = &d.scenario.vehicle;
+    let dense = d.dense;
     let last = dense.len() - 1;
     let deg = |r: f64| r.to_degrees();
     let max_abs = |c: &[f64]| c.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -249,13 +263,5 @@ pub(super) fn draw_path_info<DB: DrawingBackend>(
             o.mass_kg[end] - d.solution.final_mass_kg
         ));
     }
-    for l in lines {
-        area.draw(&Text::new(
-            l,
-            (0, y),
-            body.clone().pos(Pos::new(HPos::Left, VPos::Center)),
-        ))?;
-        y += line_h;
-    }
-    Ok(())
+    lines
 }

@@ -9,7 +9,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::FontStyle;
 
 use super::common::{
-    fmt_time, min_max, nice_step, text, tick, Res, BODY, FLAME, FONT, GREY, GROUND, OVERLAY,
+    fmt_time, min_max, nice_step, text, tick, Chart, Res, BODY, FLAME, FONT, GREY, GROUND, OVERLAY,
     SOLUTION, SWITCH,
 };
 use super::data::PlotData;
@@ -152,8 +152,6 @@ pub(super) fn draw_path<DB: DrawingBackend>(
 
 fn draw_path_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &PathPanel) -> Res<DB> {
     let d = p.data;
-    let v = &d.scenario.vehicle;
-    let dense = d.dense;
     let area = area.titled(&p.caption, (FONT, 18))?;
     let build = |ranges: (Range<f64>, Range<f64>)| {
         ChartBuilder::on(&area)
@@ -177,7 +175,6 @@ fn draw_path_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &PathPa
         .x_label_formatter(&|v| tick(*v))
         .y_label_formatter(&|v| tick(*v))
         .draw()?;
-    let (px_x, _) = chart.plotting_area().get_pixel_range();
 
     // CG target altitude.
     let z_target = d.scenario.terminal.z_m;
@@ -191,70 +188,97 @@ fn draw_path_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &PathPa
     // Vehicle outlines and thrust, in time order (later ones on top).
     let n_times = p.times.len();
     for (i, &t) in p.times.iter().enumerate() {
-        let s = sample(dense, t);
-        let pose = pose(v, &s, p.flame_at_max_m);
-        let final_pose = i + 1 == n_times;
-        // An outline that does not fit in the panel is left out (the zoom).
-        if !pose
-            .body
-            .iter()
-            .chain(&pose.nose)
-            .all(|q| inside(q, &xr, &zr))
-        {
-            continue;
-        }
-        for piece in clip_polyline(&pose.flame, &xr, &zr) {
-            chart.draw_series(std::iter::once(PathElement::new(
-                piece,
-                FLAME.stroke_width(4),
-            )))?;
-        }
-        let fill = if final_pose { 0.8 } else { 0.6 };
-        chart.draw_series(std::iter::once(Polygon::new(
-            pose.body.clone(),
-            RGBColor(200, 212, 230).mix(fill).filled(),
-        )))?;
-        chart.draw_series(std::iter::once(Polygon::new(
-            pose.nose.clone(),
-            BODY.mix(0.85).filled(),
-        )))?;
-        chart.draw_series(std::iter::once(PathElement::new(
-            pose.body.clone(),
-            BODY.stroke_width(if final_pose { 2 } else { 1 }),
-        )))?;
-        chart.draw_series(std::iter::once(Circle::new(pose.cg, 2, BODY.filled())))?;
-
-        // Time label left of the outline, or right of it near the left edge.
-        let body_px: Vec<(i32, i32)> = pose
-            .body
-            .iter()
-            .chain(&pose.nose)
-            .map(|q| chart.backend_coord(q))
-            .collect();
-        let cg_px = chart.backend_coord(&pose.cg);
-        let left_px = body_px.iter().map(|q| q.0).min().unwrap_or(cg_px.0);
-        let right_px = body_px.iter().map(|q| q.0).max().unwrap_or(cg_px.0);
-        let label = if final_pose {
-            format!("t_f = {} s", fmt_time(s.t))
-        } else {
-            format!("{} s", fmt_time(s.t))
-        };
-        let style = text(14.0).color(&BODY);
-        let (x, style) = if left_px - 80 > px_x.start {
-            (left_px - 6, style.pos(Pos::new(HPos::Right, VPos::Center)))
-        } else {
-            (right_px + 6, style.pos(Pos::new(HPos::Left, VPos::Center)))
-        };
-        chart.plotting_area().strip_coord_spec().draw(&Text::new(
-            label,
-            (
-                x - px_x.start,
-                cg_px.1 - chart.plotting_area().get_base_pixel().1,
-            ),
-            style,
-        ))?;
+        draw_outline(&mut chart, p, (&xr, &zr), t, i + 1 == n_times)?;
     }
+    draw_ground_and_paths(&mut chart, p, (&xr, &zr))?;
+    draw_switches(&mut chart, d, (&xr, &zr))
+}
 
+/// The x and z ranges a panel shows.
+type View<'r> = (&'r Range<f64>, &'r Range<f64>);
+
+/// The vehicle at time `t`: its thrust, body, nose, CG and time label (left
+/// out if the outline does not fit in the panel, as in the zoom).
+fn draw_outline<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    p: &PathPanel,
+    (xr, zr): View,
+    t: f64,
+    final_pose: bool,
+) -> Res<DB> {
+    let v = &p.data.scenario.vehicle;
+    let (px_x, _) = chart.plotting_area().get_pixel_range();
+    let s = sample(p.data.dense, t);
+    let pose = pose(v, &s, p.flame_at_max_m);
+    // An outline that does not fit in the panel is left out (the zoom).
+    if !pose
+        .body
+        .iter()
+        .chain(&pose.nose)
+        .all(|q| inside(q, xr, zr))
+    {
+        return Ok(());
+    }
+    for piece in clip_polyline(&pose.flame, xr, zr) {
+        chart.draw_series(std::iter::once(PathElement::new(
+            piece,
+            FLAME.stroke_width(4),
+        )))?;
+    }
+    let fill = if final_pose { 0.8 } else { 0.6 };
+    chart.draw_series(std::iter::once(Polygon::new(
+        pose.body.clone(),
+        RGBColor(200, 212, 230).mix(fill).filled(),
+    )))?;
+    chart.draw_series(std::iter::once(Polygon::new(
+        pose.nose.clone(),
+        BODY.mix(0.85).filled(),
+    )))?;
+    chart.draw_series(std::iter::once(PathElement::new(
+        pose.body.clone(),
+        BODY.stroke_width(if final_pose { 2 } else { 1 }),
+    )))?;
+    chart.draw_series(std::iter::once(Circle::new(pose.cg, 2, BODY.filled())))?;
+
+    // Time label left of the outline, or right of it near the left edge.
+    let body_px: Vec<(i32, i32)> = pose
+        .body
+        .iter()
+        .chain(&pose.nose)
+        .map(|q| chart.backend_coord(q))
+        .collect();
+    let cg_px = chart.backend_coord(&pose.cg);
+    let left_px = body_px.iter().map(|q| q.0).min().unwrap_or(cg_px.0);
+    let right_px = body_px.iter().map(|q| q.0).max().unwrap_or(cg_px.0);
+    let label = if final_pose {
+        format!("t_f = {} s", fmt_time(s.t))
+    } else {
+        format!("{} s", fmt_time(s.t))
+    };
+    let style = text(14.0).color(&BODY);
+    let (x, style) = if left_px - 80 > px_x.start {
+        (left_px - 6, style.pos(Pos::new(HPos::Right, VPos::Center)))
+    } else {
+        (right_px + 6, style.pos(Pos::new(HPos::Left, VPos::Center)))
+    };
+    chart.plotting_area().strip_coord_spec().draw(&Text::new(
+        label,
+        (
+            x - px_x.start,
+            cg_px.1 - chart.plotting_area().get_base_pixel().1,
+        ),
+        style,
+    ))?;
+    Ok(())
+}
+
+/// The ground, then the CG paths and the nodes over the outlines.
+fn draw_ground_and_paths<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    p: &PathPanel,
+    (xr, zr): View,
+) -> Res<DB> {
+    let d = p.data;
     // Ground: the engine's altitude at touchdown, drawn over the outlines so
     // that it hides the exhaust below it, under the paths.
     chart.draw_series(std::iter::once(Rectangle::new(
@@ -270,14 +294,14 @@ fn draw_path_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &PathPa
     let xz = |d: &Dense| -> Vec<(f64, f64)> {
         d.x_m.iter().copied().zip(d.z_m.iter().copied()).collect()
     };
-    for piece in clip_polyline(&xz(dense), &xr, &zr) {
+    for piece in clip_polyline(&xz(d.dense), xr, zr) {
         chart.draw_series(LineSeries::new(piece, SOLUTION.stroke_width(2)))?;
     }
     if let Some(o) = d.overlay {
-        for piece in clip_polyline(&xz(o), &xr, &zr) {
+        for piece in clip_polyline(&xz(o), xr, zr) {
             chart.draw_series(DashedLineSeries::new(piece, 8, 5, OVERLAY.stroke_width(2)))?;
         }
-        if let Some(end) = xz(o).last().filter(|q| inside(q, &xr, &zr)) {
+        if let Some(end) = xz(o).last().filter(|q| inside(q, xr, zr)) {
             chart.draw_series(std::iter::once(Cross::new(
                 *end,
                 6,
@@ -288,16 +312,25 @@ fn draw_path_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &PathPa
     chart.draw_series(
         xz(&d.nodes)
             .into_iter()
-            .filter(|q| inside(q, &xr, &zr))
+            .filter(|q| inside(q, xr, zr))
             .map(|q| Circle::new(q, 3, SOLUTION.filled())),
     )?;
+    Ok(())
+}
 
+/// The thrust switches on the path, with their labels.
+fn draw_switches<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    d: &PlotData,
+    (xr, zr): View,
+) -> Res<DB> {
+    let (px_x, _) = chart.plotting_area().get_pixel_range();
     // Thrust switches on the path; a label that would overlap the previous
     // one is left out (the summary lists every switch).
     let mut last_label_y: Option<i32> = None;
     for &(ts, up) in &d.switches {
-        let s = sample(dense, ts);
-        if !inside(&(s.x, s.z), &xr, &zr) {
+        let s = sample(d.dense, ts);
+        if !inside(&(s.x, s.z), xr, zr) {
             continue;
         }
         chart.draw_series(std::iter::once(TriangleMarker::new(
