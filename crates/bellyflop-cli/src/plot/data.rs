@@ -5,6 +5,14 @@ use bellyflop::{Scenario, Solution, SolverSettings};
 
 use crate::sample::Dense;
 
+/// The names of the method that ran.
+pub(super) struct MethodNames {
+    /// In the plots' titles: "direct method", "SCvx, exact formulation".
+    pub(super) title: String,
+    /// Before "iterations": "interior-point" or "SCvx".
+    pub(super) iterations: &'static str,
+}
+
 /// Everything the plots draw.
 pub struct PlotData<'a> {
     pub scenario: &'a Scenario,
@@ -64,14 +72,26 @@ impl<'a> PlotData<'a> {
         }
     }
 
+    /// The method that ran, as the plots name it: in the title (SCvx with
+    /// its formulation), and for its iterations.
+    pub(super) fn method_names(&self) -> MethodNames {
+        match self.solution.method {
+            bellyflop::Method::Direct => MethodNames {
+                title: "direct method".to_string(),
+                iterations: "interior-point",
+            },
+            bellyflop::Method::Scvx => MethodNames {
+                title: format!(
+                    "SCvx, {} formulation",
+                    self.solution.formulation_label(self.settings.formulation)
+                ),
+                iterations: "SCvx",
+            },
+        }
+    }
+
     pub(super) fn title(&self) -> String {
-        let method = match self.solution.method {
-            bellyflop::Method::Direct => "direct method".to_string(),
-            bellyflop::Method::Scvx => format!(
-                "SCvx, {} formulation",
-                self.solution.formulation_label(self.settings.formulation)
-            ),
-        };
+        let method = self.method_names().title;
         let mesh = match (self.solution.intervals, &self.solution.refinement) {
             (1, _) => String::new(),
             (m, Some(r)) => format!(" over {m} intervals (refined, {} passes)", r.passes.len()),

@@ -188,9 +188,10 @@ fn summary_lines(d: &PlotData) -> Vec<String> {
         .map(|(t, _)| *t);
     let mut lines = vec![
         format!(
-            "status {}, {} SCvx iterations",
+            "status {}, {} {} iterations",
             d.solution.status.as_str(),
-            d.solution.iterations
+            d.solution.iterations,
+            d.method_names().iterations
         ),
         format!("t_f = {:.3} s", d.solution.tf_s),
         format!(
