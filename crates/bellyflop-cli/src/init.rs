@@ -13,7 +13,7 @@ use std::process::ExitCode;
 use bellyflop::Case;
 use serde_json::Value;
 
-use crate::EXIT_BAD_INPUT;
+use crate::exit;
 
 /// Arguments of `bellyflop init`.
 #[derive(clap::Args)]
@@ -38,7 +38,7 @@ pub fn run(args: &InitArgs) -> ExitCode {
             "error: {} exists; pass --force to overwrite it",
             path.display()
         );
-        return ExitCode::from(EXIT_BAD_INPUT);
+        return ExitCode::from(exit::BAD_INPUT);
     }
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         if !dir.is_dir() {
@@ -47,7 +47,7 @@ pub fn run(args: &InitArgs) -> ExitCode {
                 path.display(),
                 dir.display()
             );
-            return ExitCode::from(EXIT_BAD_INPUT);
+            return ExitCode::from(exit::BAD_INPUT);
         }
     }
     match std::fs::write(path, text) {

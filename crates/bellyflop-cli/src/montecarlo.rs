@@ -10,17 +10,15 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-pub use bellyflop::output::campaign::RunRow;
-use bellyflop::output::campaign::{fly_row, runs_csv, summary};
+use bellyflop::output::campaign::{fly_row, runs_csv, summary, RunRow};
 use bellyflop::sim::RunOutcome;
 use bellyflop::Case;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde_json::Value;
 
-use crate::output::{self, OutputError};
-use crate::sim::load;
-use crate::{campaign_plot, EXIT_BAD_INPUT};
+use crate::error::OutputError;
+use crate::{exit, load, output, plot};
 
 #[derive(clap::Args)]
 pub struct MonteCarloArgs {
@@ -56,19 +54,20 @@ pub struct MonteCarloArgs {
 }
 
 pub fn run(args: &MonteCarloArgs) -> ExitCode {
-    let (scenario, config) = match load(&args.scenario, &args.config, args.open_loop, false) {
-        Ok(v) => v,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(EXIT_BAD_INPUT);
-        }
-    };
+    let (scenario, config) =
+        match load::closed_loop(&args.scenario, &args.config, args.open_loop, false) {
+            Ok(v) => v,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(exit::BAD_INPUT);
+            }
+        };
     if args.runs == 0 || args.runs > 1_000_000 {
         eprintln!(
             "error: --runs = {} is out of range: allowed 1 to 1000000",
             args.runs
         );
-        return ExitCode::from(EXIT_BAD_INPUT);
+        return ExitCode::from(exit::BAD_INPUT);
     }
     if let Err(code) = output::prepare_or_exit(&args.out) {
         return code;
@@ -80,7 +79,7 @@ pub fn run(args: &MonteCarloArgs) -> ExitCode {
         Ok(p) => p,
         Err(e) => {
             eprintln!("error: --threads {}: {e}", args.threads);
-            return ExitCode::from(EXIT_BAD_INPUT);
+            return ExitCode::from(exit::BAD_INPUT);
         }
     };
     let threads = pool.current_num_threads();
@@ -111,7 +110,7 @@ pub fn run(args: &MonteCarloArgs) -> ExitCode {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");
-            return ExitCode::from(EXIT_BAD_INPUT);
+            return ExitCode::from(exit::BAD_INPUT);
         }
     };
     let wall_s = start.elapsed().as_secs_f64();
@@ -215,6 +214,6 @@ fn write(
     let path = dir.join("summary.json");
     std::fs::write(&path, format!("{s}\n")).map_err(|e| OutputError::io(&path, e))?;
     files.push(path);
-    files.extend(campaign_plot::campaign(dir, rows, &case.scenario.name)?);
+    files.extend(plot::campaign(dir, rows, &case.scenario.name)?);
     Ok(files)
 }

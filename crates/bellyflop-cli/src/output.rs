@@ -6,33 +6,13 @@ use std::path::{Path, PathBuf};
 use bellyflop::verify::propagate::{Interpolant, Propagation};
 use bellyflop::{Scenario, Solution, SolverSettings};
 
-use crate::plot;
+use crate::error::OutputError;
 use crate::sample::{Dense, COLUMNS};
+use crate::{exit, plot};
 
 /// Samples per interval between consecutive LGR nodes in `trajectory.csv`
 /// and in the plots.
 pub const SAMPLES_PER_INTERVAL: usize = 10;
-
-/// Why writing the output failed.
-#[derive(Debug, thiserror::Error)]
-pub enum OutputError {
-    #[error("{path}: {message}")]
-    Io { path: String, message: String },
-    #[error("plot {path}: {message}")]
-    Plot { path: String, message: String },
-}
-
-impl OutputError {
-    pub fn io(path: &Path, e: impl std::fmt::Display) -> Self {
-        OutputError::Io {
-            path: path.display().to_string(),
-            message: e.to_string(),
-        }
-    }
-}
-
-/// Exit code when the output files cannot be written (after the solve).
-pub const EXIT_OUTPUT: u8 = 1;
 
 /// Write everything for `solve --out DIR`: `json` is the object `--json`
 /// prints, `propagation` the re-integration of the solution (drawn dashed).
@@ -75,7 +55,7 @@ pub fn report(
         }
         Err(e) => {
             eprintln!("error: {e}");
-            Err(std::process::ExitCode::from(EXIT_OUTPUT))
+            Err(std::process::ExitCode::from(exit::OUTPUT))
         }
     }
 }
@@ -86,7 +66,7 @@ pub fn prepare_or_exit(dir: &Option<PathBuf>) -> Result<(), std::process::ExitCo
     if let Some(dir) = dir {
         if let Err(e) = prepare(dir) {
             eprintln!("error: --out {e}");
-            return Err(std::process::ExitCode::from(crate::EXIT_BAD_INPUT));
+            return Err(std::process::ExitCode::from(exit::BAD_INPUT));
         }
     }
     Ok(())

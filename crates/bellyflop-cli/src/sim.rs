@@ -4,19 +4,14 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use bellyflop::guidance::{end_state, Flight, ReplanOutcome, SimConfig};
-use bellyflop::sim::{Dispersions, Outcome, RunOutcome};
+use bellyflop::guidance::{end_state, Flight, ReplanOutcome};
+use bellyflop::sim::{Outcome, RunOutcome};
 use bellyflop::Case;
 use serde_json::Value;
 
-use crate::output::{self, OutputError};
+use crate::error::OutputError;
 use crate::sample::Dense;
-use crate::{campaign_plot, EXIT_BAD_INPUT};
-
-/// Exit code of a run that did not end in a touchdown.
-pub const EXIT_NO_TOUCHDOWN: u8 = 7;
-/// Exit code of a touchdown beyond the survivable limits (`crash`).
-pub const EXIT_CRASH: u8 = 8;
+use crate::{exit, load, output, plot};
 
 #[derive(clap::Args, Default)]
 pub struct SimArgs {
@@ -51,33 +46,8 @@ pub struct SimArgs {
     out: Option<PathBuf>,
 }
 
-/// Scenario and configuration from the common arguments.
-pub fn load(
-    scenario: &Option<PathBuf>,
-    config: &Option<PathBuf>,
-    open_loop: bool,
-    no_dispersions: bool,
-) -> Result<(Case, SimConfig), bellyflop::InputError> {
-    let s = match scenario {
-        Some(p) => Case::from_file(p)?,
-        None => Case::paper(),
-    };
-    let mut c = match config {
-        Some(p) => SimConfig::from_file(p)?,
-        None => SimConfig::default(),
-    };
-    if open_loop {
-        c.guidance.replan = false;
-    }
-    if no_dispersions {
-        c.dispersions = Dispersions::none();
-    }
-    c.validate()?;
-    Ok((s, c))
-}
-
 pub fn run(args: &SimArgs) -> ExitCode {
-    let (scenario, config) = match load(
+    let (scenario, config) = match load::closed_loop(
         &args.scenario,
         &args.config,
         args.open_loop,
@@ -86,7 +56,7 @@ pub fn run(args: &SimArgs) -> ExitCode {
         Ok(v) => v,
         Err(e) => {
             eprintln!("error: {e}");
-            return ExitCode::from(EXIT_BAD_INPUT);
+            return ExitCode::from(exit::BAD_INPUT);
         }
     };
     if let Err(code) = output::prepare_or_exit(&args.out) {
@@ -96,7 +66,7 @@ pub fn run(args: &SimArgs) -> ExitCode {
         Ok(f) => f,
         Err(e) => {
             eprintln!("error: {e}");
-            return ExitCode::from(EXIT_BAD_INPUT);
+            return ExitCode::from(exit::BAD_INPUT);
         }
     };
     let outcome = config.outcome(&flight);
@@ -114,14 +84,14 @@ pub fn run(args: &SimArgs) -> ExitCode {
     ExitCode::from(exit_code(outcome))
 }
 
-/// The exit code of `sim`: 0 landed or hard landing, [`EXIT_CRASH`] on a
-/// crash, [`EXIT_NO_TOUCHDOWN`] without a touchdown.
+/// The exit code of `sim`: 0 landed or hard landing, [`exit::CRASH`] on a
+/// crash, [`exit::NO_TOUCHDOWN`] without a touchdown.
 pub fn exit_code(o: RunOutcome) -> u8 {
     match o {
         RunOutcome::Landed | RunOutcome::HardLanding => 0,
-        RunOutcome::Crash => EXIT_CRASH,
+        RunOutcome::Crash => exit::CRASH,
         RunOutcome::PropellantExhausted | RunOutcome::TimeLimit | RunOutcome::NonFinite => {
-            EXIT_NO_TOUCHDOWN
+            exit::NO_TOUCHDOWN
         }
     }
 }
@@ -240,6 +210,6 @@ fn write(
     std::fs::write(&path, format!("{v}\n")).map_err(|e| OutputError::io(&path, e))?;
     files.push(path);
 
-    files.extend(campaign_plot::timeline(dir, f)?);
+    files.extend(plot::timeline(dir, f)?);
     Ok(files)
 }

@@ -9,8 +9,9 @@ use bellyflop::method::scvx::Silent;
 use bellyflop::Status;
 use serde_json::{json, Value};
 
+use crate::args::{FormulationArg, SolveArgs};
 use crate::landing::{self, InterpolationArg};
-use crate::{load, FormulationArg, SolveArgs, EXIT_BAD_INPUT};
+use crate::{exit, load};
 
 #[derive(clap::Args)]
 pub struct SweepArgs {
@@ -43,17 +44,17 @@ pub fn run(args: &SweepArgs) -> ExitCode {
             formulation: args.formulation,
             ..SolveArgs::default()
         };
-        match load(&solve_args) {
+        match load::case(&solve_args) {
             Ok(s) => scenarios.push(s),
             Err(e) => {
                 eprintln!("error: {e}");
-                return ExitCode::from(EXIT_BAD_INPUT);
+                return ExitCode::from(exit::BAD_INPUT);
             }
         }
     }
     let Some(base) = scenarios.first() else {
         eprintln!("error: --nodes needs at least one N");
-        return ExitCode::from(EXIT_BAD_INPUT);
+        return ExitCode::from(exit::BAD_INPUT);
     };
 
     if !args.json {

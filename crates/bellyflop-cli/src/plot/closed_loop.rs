@@ -9,11 +9,11 @@
 use std::path::{Path, PathBuf};
 
 use bellyflop::guidance::{Flight, ReplanOutcome};
+use bellyflop::output::campaign::RunRow;
 use plotters::prelude::*;
 
-use crate::montecarlo::RunRow;
-use crate::output::OutputError;
-use crate::plot::{fonts, plot_error, Res, FONT};
+use super::common::{fonts, Res, FONT};
+use crate::error::OutputError;
 
 const BLUE: RGBColor = RGBColor(31, 90, 180);
 const RED: RGBColor = RGBColor(200, 30, 30);
@@ -38,14 +38,14 @@ fn both(
         let root = SVGBackend::new(&svg, size).into_drawing_area();
         draw(&root)
             .and_then(|()| root.present())
-            .map_err(|e| plot_error(&svg, e))?;
+            .map_err(|e| OutputError::plot(&svg, e))?;
     }
     let png = dir.join(format!("{stem}.png"));
     {
         let root = BitMapBackend::new(&png, size).into_drawing_area();
         draw_png(&root)
             .and_then(|()| root.present())
-            .map_err(|e| plot_error(&png, e))?;
+            .map_err(|e| OutputError::plot(&png, e))?;
     }
     Ok(vec![svg, png])
 }

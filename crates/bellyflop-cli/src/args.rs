@@ -1,0 +1,68 @@
+//! The flags that `solve` and `sweep` share: the scenario file and its
+//! overrides.
+
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+
+use crate::landing;
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum FormulationArg {
+    Exact,
+    Paper,
+    Vector,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum MethodArg {
+    Scvx,
+    Direct,
+}
+
+#[derive(clap::Args, Default)]
+pub struct SolveArgs {
+    /// Scenario TOML file; the paper's case when omitted.
+    #[arg(long)]
+    pub scenario: Option<PathBuf>,
+    /// Number of LGR collocation points N (4 to 200; at most 100 on the global mesh); overrides the scenario
+    /// (a `[discretization.mesh]` of the file gives way to the uniform mesh).
+    #[arg(long)]
+    pub nodes: Option<usize>,
+    /// Number of LGR mesh intervals M (1 to N/2; 1 is the paper's global
+    /// mesh); overrides the scenario (and its `[discretization.mesh]`, as
+    /// `--nodes` does).
+    #[arg(long)]
+    pub intervals: Option<usize>,
+    /// Thrust-direction formulation; overrides the scenario.
+    #[arg(long, value_enum)]
+    pub formulation: Option<FormulationArg>,
+    /// Solution method: `scvx` (successive convexification, the paper's) or
+    /// `direct` (interior point on the nonlinear program); overrides the
+    /// scenario's `solver.method`.
+    #[arg(long, value_enum)]
+    pub method: Option<MethodArg>,
+    /// Refine the mesh (hp, with breaks at the control switches) until every
+    /// interval's relative error is at most TOL; overrides the scenario's
+    /// `solver.refinement.tolerance` (0: no refinement).
+    #[arg(long, value_name = "TOL")]
+    pub mesh_tolerance: Option<f64>,
+    /// Print one JSON object on stdout instead of a summary.
+    #[arg(long)]
+    pub json: bool,
+    /// Do not print per-iteration progress on stderr.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Interpolation of the controls when re-propagating for the landing error.
+    #[arg(long, value_enum, default_value = "pchip")]
+    pub interpolation: landing::InterpolationArg,
+    /// Write trajectory.csv, solution.json and the plots (SVG and PNG) into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Solve R times in this process and report the median solve time (and
+    /// its minimum and maximum), as the IPOPT reference's `--repeat` does;
+    /// the solution is the last run's (every run gives the same one).
+    #[arg(long, value_name = "R", default_value_t = 1,
+          value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub repeat: u32,
+}

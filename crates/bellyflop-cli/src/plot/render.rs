@@ -1,0 +1,53 @@
+//! Every plot of `solve --out`, each as SVG and PNG.
+
+use std::path::{Path, PathBuf};
+
+use plotters::prelude::*;
+
+use super::common::fonts;
+use super::convergence::draw_convergence;
+use super::data::PlotData;
+use super::histories::draw_histories;
+use super::path::draw_path;
+use crate::error::OutputError;
+
+/// Every plot: file stem and size in pixels.
+pub const PLOTS: [(&str, (u32, u32)); 3] = [
+    ("path", (1300, 1050)),
+    ("histories", (1600, 1150)),
+    ("convergence", (1300, 950)),
+];
+
+/// Draw every plot as `DIR/NAME.svg` and `DIR/NAME.png`; return the paths.
+pub fn render_all(dir: &Path, d: &PlotData) -> Result<Vec<PathBuf>, OutputError> {
+    fonts();
+    let mut written = Vec::new();
+    macro_rules! both {
+        ($stem:expr, $size:expr, $draw:ident) => {{
+            let svg = dir.join(format!("{}.svg", $stem));
+            {
+                let root = SVGBackend::new(&svg, $size).into_drawing_area();
+                $draw(&root, d)
+                    .and_then(|()| root.present())
+                    .map_err(|e| OutputError::plot(&svg, e))?;
+            }
+            written.push(svg);
+            let png = dir.join(format!("{}.png", $stem));
+            {
+                let root = BitMapBackend::new(&png, $size).into_drawing_area();
+                $draw(&root, d)
+                    .and_then(|()| root.present())
+                    .map_err(|e| OutputError::plot(&png, e))?;
+            }
+            written.push(png);
+        }};
+    }
+    for (stem, size) in PLOTS {
+        match stem {
+            "path" => both!(stem, size, draw_path),
+            "histories" => both!(stem, size, draw_histories),
+            _ => both!(stem, size, draw_convergence),
+        }
+    }
+    Ok(written)
+}

@@ -1,0 +1,254 @@
+//! `bellyflop solve`: one landing problem, its summary or JSON, and its files.
+
+use std::process::ExitCode;
+
+use bellyflop::method::direct::DirectIteration;
+use bellyflop::solution::IterationRecord;
+use bellyflop::{Case, Method, Scenario, Solution, SolverSettings};
+
+use crate::args::SolveArgs;
+use crate::{exit, landing, load, output};
+
+pub fn run(args: SolveArgs) -> ExitCode {
+    let Case {
+        scenario,
+        solver: settings,
+    } = match load::case(&args) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(exit::BAD_INPUT);
+        }
+    };
+    if let Err(code) = output::prepare_or_exit(&args.out) {
+        return code;
+    }
+    let quiet = args.quiet || args.json;
+    let mut progress = Progress { quiet };
+    let (solution, times_ms) = solve_repeated(&scenario, &settings, &mut progress, args.repeat);
+    let propagation = landing::propagate(&scenario, &solution, args.interpolation);
+    // One JSON object: printed by --json, and written as solution.json by --out.
+    let mut v = solution.to_json();
+    if args.repeat > 1 {
+        v["repeat"] = args.repeat.into();
+        v["solve_time_min_ms"] = times_ms[0].into();
+        v["solve_time_max_ms"] = times_ms[times_ms.len() - 1].into();
+    }
+    landing::add_to_json(&mut v, &propagation);
+    bellyflop::output::report::add_mesh_json(&mut v, &scenario, &solution);
+    if args.json {
+        println!("{v}");
+    } else {
+        print_summary(&scenario, &settings, &solution, &times_ms);
+        landing::print_summary(&propagation, solution.final_mass_kg);
+        print_mesh_summary(&v["mesh"]);
+    }
+    if let Some(dir) = &args.out {
+        let propagated = propagation.as_ref().ok();
+        if let Err(code) =
+            output::write_and_report(dir, &scenario, &settings, &solution, &v, propagated, quiet)
+        {
+            return code;
+        }
+    }
+    ExitCode::from(solution.status.exit_code() as u8)
+}
+
+/// Solve `repeat` times (progress shown for the first run only); the last
+/// solution with the median solve time, and the sorted times. Every run must
+/// give the same answer: the solvers are deterministic, and a difference is
+/// reported on stderr.
+fn solve_repeated(
+    scenario: &Scenario,
+    settings: &SolverSettings,
+    progress: &mut Progress,
+    repeat: u32,
+) -> (Solution, Vec<f64>) {
+    let mut solution = bellyflop::solve(scenario, settings, progress);
+    let mut times_ms = vec![solution.solve_time_ms];
+    for _ in 1..repeat {
+        let again = bellyflop::solve(scenario, settings, &mut Progress { quiet: true });
+        if again.status != solution.status || again.final_mass_kg != solution.final_mass_kg {
+            eprintln!(
+                "warning: a repeated solve differed: {} at {} kg, then {} at {} kg",
+                solution.status.as_str(),
+                solution.final_mass_kg,
+                again.status.as_str(),
+                again.final_mass_kg
+            );
+        }
+        times_ms.push(again.solve_time_ms);
+        solution = again;
+    }
+    times_ms.sort_by(f64::total_cmp);
+    let k = times_ms.len();
+    solution.solve_time_ms = 0.5 * (times_ms[(k - 1) / 2] + times_ms[k / 2]);
+    (solution, times_ms)
+}
+
+/// Per-iteration progress on stderr.
+struct Progress {
+    quiet: bool,
+}
+
+impl bellyflop::Observer for Progress {
+    fn on_iteration(&mut self, r: &IterationRecord) {
+        if !self.quiet {
+            eprintln!(
+                "iter {:>3}  J {:>+12.6e}  m_f {:>10.1} kg  step {:>9.2e}  vc {:>9.2e}  radius {:>8.2e}  rho {:>+7.3}  {}{}  ipm {:>2}  {:>7.2} ms",
+                r.iteration,
+                r.cost,
+                r.final_mass_kg,
+                r.step,
+                r.virtual_control,
+                r.trust_radius,
+                r.rho,
+                if r.accepted { "acc" } else { "rej" },
+                // The candidate was judged after its second-order correction.
+                if r.corrected { "+soc" } else { "    " },
+                r.ipm_iterations,
+                r.ms
+            );
+        }
+    }
+
+    fn pass(&mut self, p: &bellyflop::refine::Pass) {
+        if !self.quiet {
+            eprintln!(
+                "pass {:>2}  N {:>3} over {:>2} intervals  {:<9}  {:>3} iterations  {:>7.2} ms  m_f {:>10.2} kg  max error {:>8.1e}  events at {}",
+                p.pass,
+                p.nodes,
+                p.mesh.points.len(),
+                p.status.as_str(),
+                p.iterations,
+                p.solve_time_ms,
+                p.final_mass_kg,
+                p.max_relative_error,
+                if p.events_s.is_empty() {
+                    "none".to_string()
+                } else {
+                    p.events_s
+                        .iter()
+                        .map(|t| format!("{t:.3} s"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                }
+            );
+        }
+    }
+
+    fn on_direct_iteration(&mut self, r: &DirectIteration) {
+        if !self.quiet {
+            eprintln!(
+                "iter {:>3}  m_f {:>10.2} kg  inf_pr {:>9.2e}  inf_du {:>9.2e}  mu {:>8.1e}  alpha {:>8.2e}  reg {:>8.1e}  ls {:>2}{}  {:>6.3} ms",
+                r.iteration,
+                r.final_mass_kg,
+                r.primal_infeasibility,
+                r.dual_infeasibility,
+                r.mu,
+                r.step,
+                r.inertia_correction,
+                r.line_search_trials,
+                if r.restoration { " restoration" } else { "" },
+                r.ms
+            );
+        }
+    }
+}
+
+/// The mesh error line of the summary, from the JSON's `mesh` field.
+fn print_mesh_summary(mesh: &serde_json::Value) {
+    match mesh["intervals"].as_array() {
+        Some(intervals) => {
+            let worst = intervals.iter().max_by(|a, b| {
+                let e = |v: &serde_json::Value| v["relative_error"].as_f64().unwrap_or(f64::NAN);
+                e(a).total_cmp(&e(b))
+            });
+            if let Some(w) = worst {
+                println!(
+                    "mesh error    {:.1e} relative (largest on interval {} of {}, in {}; integration of the dynamics with the mesh's controls)",
+                    w["relative_error"].as_f64().unwrap_or(f64::NAN),
+                    w["interval"],
+                    intervals.len(),
+                    w["worst_state"].as_str().unwrap_or("?")
+                );
+            }
+        }
+        None => println!(
+            "mesh error    not estimated: {}",
+            mesh["error"].as_str().unwrap_or("?")
+        ),
+    }
+}
+
+/// The human summary; `times_ms` are the sorted solve times of `--repeat`.
+fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, times_ms: &[f64]) {
+    println!("scenario      {}", scenario.name);
+    println!("status        {}", s.status.as_str());
+    if !s.message.is_empty() {
+        println!("reason        {}", s.message);
+    }
+    let mesh = match s.intervals {
+        1 => "global mesh".to_string(),
+        m => format!(
+            "{m} intervals ({} points)",
+            s.mesh
+                .points
+                .iter()
+                .map(|p| p.to_string())
+                .collect::<Vec<_>>()
+                .join("+")
+        ),
+    };
+    match s.method {
+        Method::Direct => println!(
+            "method        direct (interior point on P2), N = {}, {mesh}",
+            s.nodes
+        ),
+        Method::Scvx => println!(
+            "formulation   {}, N = {}, {mesh}",
+            s.formulation_label(settings.formulation),
+            s.nodes
+        ),
+    }
+    if let Some(r) = &s.refinement {
+        let stop = r.stop.describe();
+        let last = r.passes.last().map_or(f64::NAN, |p| p.max_relative_error);
+        println!(
+            "refinement    {} passes to a tolerance of {:.0e}, max error {last:.1e}: {stop}",
+            r.passes.len(),
+            r.tolerance
+        );
+    }
+    println!("t_f           {:.4} s", s.tf_s);
+    println!(
+        "final mass    {:.1} kg (fuel {:.1} kg)",
+        s.final_mass_kg, s.fuel_kg
+    );
+    match s.method {
+        Method::Scvx => println!(
+            "iterations    {} SCvx, {} interior-point in all",
+            s.iterations,
+            s.history.iter().map(|h| h.ipm_iterations).sum::<u32>()
+        ),
+        Method::Direct => println!(
+            "iterations    {} interior-point (direct method)",
+            s.iterations
+        ),
+    }
+    if times_ms.len() > 1 {
+        println!(
+            "solve time    {:.1} ms (median of {} runs; min {:.1} ms, max {:.1} ms)",
+            s.solve_time_ms,
+            times_ms.len(),
+            times_ms[0],
+            times_ms[times_ms.len() - 1]
+        );
+    } else {
+        println!("solve time    {:.1} ms", s.solve_time_ms);
+    }
+    println!(
+        "checks        defect {:.1e}, virtual control {:.1e}, relaxation gap {:.1e}, thrust alignment {:.6}",
+        s.checks.max_defect, s.checks.virtual_control, s.checks.relaxation_gap, s.checks.thrust_alignment_min
+    );
+}
