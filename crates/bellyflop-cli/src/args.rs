@@ -3,21 +3,21 @@
 
 use std::path::PathBuf;
 
-use clap::ValueEnum;
+use bellyflop::{Formulation, Method};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 
 use crate::landing;
 
-#[derive(Clone, Copy, ValueEnum)]
-pub enum FormulationArg {
-    Exact,
-    Paper,
-    Vector,
+/// `--method`'s parser: the library's names of its methods.
+fn method_parser() -> impl TypedValueParser<Value = Method> {
+    PossibleValuesParser::new(Method::ALL.map(Method::as_str))
+        .map(|s| s.parse().expect("one of the possible values"))
 }
 
-#[derive(Clone, Copy, ValueEnum)]
-pub enum MethodArg {
-    Scvx,
-    Direct,
+/// `--formulation`'s parser: the library's names of its formulations.
+pub fn formulation_parser() -> impl TypedValueParser<Value = Formulation> {
+    PossibleValuesParser::new(Formulation::ALL.map(Formulation::as_str))
+        .map(|s| s.parse().expect("one of the possible values"))
 }
 
 #[derive(clap::Args, Default)]
@@ -35,13 +35,13 @@ pub struct SolveArgs {
     #[arg(long)]
     pub intervals: Option<usize>,
     /// Thrust-direction formulation; overrides the scenario.
-    #[arg(long, value_enum)]
-    pub formulation: Option<FormulationArg>,
+    #[arg(long, value_parser = formulation_parser())]
+    pub formulation: Option<Formulation>,
     /// Solution method: `scvx` (successive convexification, the paper's) or
     /// `direct` (interior point on the nonlinear program); overrides the
     /// scenario's `solver.method`.
-    #[arg(long, value_enum)]
-    pub method: Option<MethodArg>,
+    #[arg(long, value_parser = method_parser())]
+    pub method: Option<Method>,
     /// Refine the mesh (hp, with breaks at the control switches) until every
     /// interval's relative error is at most TOL; overrides the scenario's
     /// `solver.refinement.tolerance` (0: no refinement).

@@ -4,47 +4,26 @@
 use std::path::PathBuf;
 
 use bellyflop::guidance::SimConfig;
+use bellyflop::input::overrides::Overrides;
 use bellyflop::sim::Dispersions;
-use bellyflop::{Case, Formulation, Method};
+use bellyflop::Case;
 
-use crate::args::{FormulationArg, MethodArg, SolveArgs};
+use crate::args::SolveArgs;
 
 /// The scenario file (the paper's case by default) with the flags' overrides.
 pub fn case(args: &SolveArgs) -> Result<Case, bellyflop::InputError> {
-    let mut case = match &args.scenario {
+    let case = match &args.scenario {
         Some(path) => Case::from_file(path)?,
         None => Case::paper(),
     };
-    let d = &mut case.scenario.discretization;
-    if args.nodes.is_some() || args.intervals.is_some() {
-        // The flags ask for the uniform mesh of their counts, in place of
-        // the file's explicit `[discretization.mesh]`.
-        d.mesh = None;
+    Overrides {
+        nodes: args.nodes,
+        intervals: args.intervals,
+        formulation: args.formulation,
+        method: args.method,
+        mesh_tolerance: args.mesh_tolerance,
     }
-    if let Some(n) = args.nodes {
-        d.nodes = n;
-    }
-    if let Some(m) = args.intervals {
-        d.intervals = m;
-    }
-    if let Some(f) = args.formulation {
-        case.solver.formulation = match f {
-            FormulationArg::Exact => Formulation::Exact,
-            FormulationArg::Paper => Formulation::Paper,
-            FormulationArg::Vector => Formulation::Vector,
-        };
-    }
-    if let Some(m) = args.method {
-        case.solver.method = match m {
-            MethodArg::Scvx => Method::Scvx,
-            MethodArg::Direct => Method::Direct,
-        };
-    }
-    if let Some(tol) = args.mesh_tolerance {
-        case.solver.refinement.tolerance = tol;
-    }
-    case.validate()?;
-    Ok(case)
+    .apply(case)
 }
 
 /// The scenario file and the closed-loop configuration of `sim` and

@@ -9,7 +9,7 @@ use bellyflop::method::scvx::Silent;
 use bellyflop::Status;
 use serde_json::{json, Value};
 
-use crate::args::{FormulationArg, SolveArgs};
+use crate::args::{formulation_parser, SolveArgs};
 use crate::landing::{self, InterpolationArg};
 use crate::{exit, load};
 
@@ -22,8 +22,8 @@ pub struct SweepArgs {
     #[arg(long)]
     scenario: Option<PathBuf>,
     /// Thrust-direction formulation; overrides the scenario.
-    #[arg(long, value_enum)]
-    formulation: Option<FormulationArg>,
+    #[arg(long, value_parser = formulation_parser())]
+    formulation: Option<bellyflop::Formulation>,
     /// Interpolation of the controls for the landing-precision re-propagation.
     #[arg(long, value_enum, default_value = "pchip")]
     interpolation: InterpolationArg,
