@@ -9,6 +9,7 @@
 use std::time::Instant;
 
 pub mod conic;
+mod socp;
 mod subproblem;
 pub mod transcription;
 
@@ -19,7 +20,7 @@ use crate::problem::dynamics::{ix, NU_MAX, NX};
 pub use crate::solution::GROUND_TOLERANCE_M;
 use crate::solution::{self, IterationRecord, Solution, Status};
 pub use conic::ConicSolver;
-pub use subproblem::{ConicData, SubproblemResult};
+pub use socp::{ConicData, SubproblemResult};
 
 /// The paper's initial reference: the straight line from the initial to the
 /// terminal state (mass from m0 to the final-mass guess, δ from δ0 to 0),

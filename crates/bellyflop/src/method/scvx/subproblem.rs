@@ -1,15 +1,17 @@
 //! The convex subproblem P4 (Eq. 26–30) of a [`Transcription`] as sparse
 //! conic data for Clarabel, its second-order correction (Clarabel's QDLDL),
-//! and its solve: the one place that builds solver data, and with
-//! [`super::conic`] the only one that names Clarabel's types.
+//! and its solve: the one place that builds solver data. With
+//! [`super::socp`] (the data's types) and [`super::conic`] (the solver),
+//! the only files that name Clarabel's types.
 //!
 //! Every constraint row is divided by the scale of the quantity it
 //! constrains; the layout and the scaling are the transcription's.
 
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{SolverStatus, SupportedConeT};
+use clarabel::solver::SupportedConeT;
 
 use super::conic::ConicSolver;
+use super::socp::{ConicData, SubproblemResult};
 use crate::input::scenario::Formulation;
 use crate::method::scvx::transcription::{vector_residuals, Trajectory, Transcription};
 use crate::problem::dynamics::{self, ix, NX};
@@ -19,36 +21,6 @@ use crate::problem::dynamics::{self, ix, NX};
 /// to ~1e-10, yet it keeps the factorization quasi-definite when A_eq is
 /// rank-deficient.
 const CORRECTION_REGULARIZATION: f64 = 1e-10;
-
-/// Conic data of one subproblem: minimize qᵀz s.t. A z + s = b, s ∈ cones.
-#[derive(Debug, Clone)]
-pub struct ConicData {
-    /// Upper triangle of the quadratic cost: the proximal term w·‖ẑ − ẑ_ref‖².
-    pub p: CscMatrix<f64>,
-    /// Linear cost of the convex model L (cost plus exact penalty).
-    pub q_model: Vec<f64>,
-    /// Linear cost including the proximal term's linear part.
-    pub q: Vec<f64>,
-    pub a: CscMatrix<f64>,
-    pub b: Vec<f64>,
-    pub cones: Vec<SupportedConeT<f64>>,
-}
-
-/// The answer of one subproblem.
-#[derive(Debug, Clone)]
-pub struct SubproblemResult {
-    pub trajectory: Trajectory,
-    /// Scaled trajectory variables.
-    pub z: Vec<f64>,
-    /// Objective of the convex model L(z) (cost plus linear penalty).
-    pub model_cost: f64,
-    /// Largest virtual control or buffer (scaled ∞-norm).
-    pub virtual_control: f64,
-    pub ipm_iterations: u32,
-    pub status: SolverStatus,
-    /// Virtual control ν⁺ − ν⁻ of every collocation defect (node-major, N·NX).
-    pub defect_virtual_control: Vec<f64>,
-}
 
 struct Rows {
     i: Vec<usize>,
@@ -388,7 +360,7 @@ impl Transcription {
 
     /// Solve one subproblem with Clarabel; an error names the solver status when it fails.
     pub fn solve(&self, data: &ConicData) -> Result<SubproblemResult, String> {
-        super::conic::solve_once(self, data)
+        self.solve_with(&mut ConicSolver::new(), data)
     }
 
     /// Solve one subproblem with a solver kept across iterations (set up on
