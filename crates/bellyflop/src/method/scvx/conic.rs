@@ -9,11 +9,13 @@
 //! zero-dropping to be off, as they change the problem's structure (chordal
 //! decomposition exists only with Clarabel's `sdp` feature, which we do not
 //! enable).
+//!
+//! [`Transcription`]: crate::method::scvx::transcription::Transcription
+//! [`Transcription::assemble`]: crate::method::scvx::transcription::Transcription::assemble
 
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus};
 
-use super::subproblem::{ConicData, SubproblemResult};
-use crate::method::scvx::transcription::Transcription;
+use super::socp::ConicData;
 
 /// Clarabel's settings for SCvx subproblems.
 fn settings() -> DefaultSettings<f64> {
@@ -81,9 +83,4 @@ impl std::fmt::Debug for ConicSolver {
             .field("setups", &self.setups)
             .finish()
     }
-}
-
-/// Convenience for one-off solves: a fresh solver.
-pub fn solve_once(tr: &Transcription, data: &ConicData) -> Result<SubproblemResult, String> {
-    tr.solve_with(&mut ConicSolver::new(), data)
 }

@@ -3,15 +3,25 @@
 //! the actual to the predicted decrease of the penalized cost J, which gives
 //! global convergence where a radius that only shrinks can freeze early.
 //!
-//! This module is the one driver loop. Progress goes to an [`Observer`]; nothing
+//! This module is the one driver loop, in the shape of argmin's: a step
+//! (`step`: solve the subproblem about the reference, judge the candidate by
+//! ρ, its second-order correction), the trust-region rules (`trust_region`:
+//! accept when ρ ≥ ρ0, shrink below ρ1, grow from ρ2) and the classification
+//! of how the run ends (`classify`: the stopping tests, the status and its
+//! message). The subproblem's data are built in `subproblem`, typed in
+//! `socp` and solved by [`conic`]. Progress goes to an [`Observer`]; nothing
 //! here prints.
 
 use std::time::Instant;
 
+mod classify;
 pub mod conic;
+mod socp;
 pub mod solver;
+mod step;
 mod subproblem;
 pub mod transcription;
+mod trust_region;
 
 use crate::input::scenario::{Formulation, Scenario, SolverSettings};
 pub use crate::method::observer::{Observer, Silent};
@@ -19,8 +29,12 @@ use crate::method::scvx::transcription::{Trajectory, Transcription};
 use crate::problem::dynamics::{ix, NU_MAX, NX};
 pub use crate::solution::GROUND_TOLERANCE_M;
 use crate::solution::{self, IterationRecord, Solution, Status};
+use classify::Outcome;
+pub use classify::{COARSE_MESH_NODES, INFEASIBLE_VIRTUAL_CONTROL, THRUST_TOLERANCE_FRAC};
 pub use conic::ConicSolver;
-pub use subproblem::{ConicData, SubproblemResult};
+pub use socp::{ConicData, SubproblemResult};
+use step::Reference;
+use trust_region::TrustRegion;
 
 /// The paper's initial reference: the straight line from the initial to the
 /// terminal state (mass from m0 to the final-mass guess, δ from δ0 to 0),
@@ -64,122 +78,6 @@ pub fn straight_line(tr: &Transcription, tf_s: f64, final_mass_kg: f64) -> Traje
         })
         .collect();
     Trajectory { x, u, tf_s }
-}
-
-/// A converged virtual control at least this large (scaled) is a certificate
-/// that the nonlinear constraints cannot be met; below it, and above the
-/// tolerance, the answer is only "not converged".
-pub const INFEASIBLE_VIRTUAL_CONTROL: f64 = 1e-4;
-
-/// How far a `solved` thrust may leave [T_min, T_max], as a fraction of
-/// T_max (2.2 N on the paper's case). The bounds are linearized in ω (Eq. 28),
-/// which costs T_min·Δω²/2 below T_min, and held with penalized buffers up
-/// to the virtual-control tolerance: measured 4e-5 N with T_min = T_max.
-pub const THRUST_TOLERANCE_FRAC: f64 = 1e-6;
-
-/// Consecutive creeping steps (see `solve_from_with`) after which the trust
-/// region shrinks.
-const CREEP_WINDOW: usize = 5;
-/// A step at least this fraction of the radius reaches the trust region.
-const CREEP_BOUND: f64 = 0.99;
-
-/// Iterations over which [`stalled`] judges progress.
-const STALL_WINDOW: usize = 8;
-/// Relative merit decrease over the window below which the search has stalled.
-const STALL_DECREASE: f64 = 0.02;
-/// Virtual control (scaled) that the stalled iterates must all still need.
-const STALL_VIRTUAL_CONTROL: f64 = 1e-2;
-
-/// Detect a stalled minimum-violation search: over the last [`STALL_WINDOW`]
-/// iterations every candidate needed virtual control ≥ [`STALL_VIRTUAL_CONTROL`]
-/// and the merit fell by less than [`STALL_DECREASE`] (relative).
-fn stalled(history: &[IterationRecord]) -> Option<String> {
-    if history.len() <= STALL_WINDOW {
-        return None;
-    }
-    let window = &history[history.len() - STALL_WINDOW - 1..];
-    if window
-        .iter()
-        .any(|h| h.virtual_control < STALL_VIRTUAL_CONTROL)
-    {
-        return None;
-    }
-    let accepted: Vec<f64> = window
-        .iter()
-        .filter(|h| h.accepted)
-        .map(|h| h.cost)
-        .collect();
-    let (first, last) = (accepted.first()?, accepted.last()?);
-    let decrease = (first - last) / first.abs().max(1e-12);
-    (decrease < STALL_DECREASE).then(|| {
-        format!(
-            "over the last {STALL_WINDOW} iterations the merit fell by only {:.2}% while the virtual control stayed above {STALL_VIRTUAL_CONTROL:.0e}",
-            100.0 * decrease
-        )
-    })
-}
-
-fn inf_norm_diff(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
-}
-
-const STATE_NAMES: [&str; NX] = [
-    "x (horizontal position)",
-    "z (altitude)",
-    "Vx (horizontal velocity)",
-    "Vz (vertical velocity)",
-    "theta (pitch)",
-    "w (pitch rate)",
-    "omega = ln m (mass)",
-    "delta (nozzle angle)",
-];
-
-/// Below this many collocation points an `infeasible` answer says only that
-/// no trajectory was found on the mesh: the paper's case is `infeasible` at
-/// N = 4 (the smallest accepted) and solved from N = 5 on.
-pub const COARSE_MESH_NODES: usize = 10;
-
-/// Explain why a stationary point with virtual control is infeasible.
-fn infeasibility_reason(tr: &Transcription, t: &Trajectory, vc: f64) -> String {
-    let d = tr.defects(t);
-    let (mut worst, mut node, mut comp) = (0.0, 0, 0);
-    for (i, row) in d.iter().enumerate() {
-        for (c, v) in row.iter().enumerate() {
-            if v.abs() > worst {
-                (worst, node, comp) = (v.abs(), i, c);
-            }
-        }
-    }
-    let n = tr.layout.n;
-    let claim = if n < COARSE_MESH_NODES {
-        format!(
-            "no trajectory was found on this mesh of N = {n} collocation points, which may be too coarse: try more nodes (discretization.nodes or --nodes, e.g. 20)"
-        )
-    } else {
-        "SCvx found no trajectory that meets the dynamics and boundary conditions".to_string()
-    };
-    let mut reason = format!(
-        "{claim}: SCvx settled with virtual control {vc:.2e} (scaled); the largest violation is in the {} equation at t = {:.2} s",
-        STATE_NAMES[comp],
-        tr.mesh.time_s(node, t.tf_s)
-    );
-    let mf = t.x[n][ix::OMEGA].exp();
-    if mf <= tr.model.dry_mass_kg * (1.0 + 1e-6) {
-        reason += &format!(
-            "; the propellant runs out (final mass at the dry mass {:.0} kg)",
-            tr.model.dry_mass_kg
-        );
-    }
-    let si = tr.sigma_index();
-    let at_max = (0..n)
-        .filter(|&i| t.u[i][si] * t.x[i][ix::OMEGA].exp() >= tr.model.max_thrust_n * (1.0 - 1e-3))
-        .count();
-    if at_max * 2 >= n {
-        reason += &format!("; thrust is at T_max at {at_max} of {n} nodes");
-    }
-    reason
 }
 
 /// Solve a scenario from the straight-line guess (Section 3.4), in
@@ -322,194 +220,83 @@ pub fn solve_from_with(
     conic: &mut ConicSolver,
 ) -> Solution {
     let start = Instant::now();
-    let mut reference = guess;
-    let mut z_ref = tr.to_scaled(&reference);
-    let mut j_ref = tr.merit(&reference).total;
-    let mut radius = settings.trust_region_initial;
+    let mut reference = Reference::new(tr, guess);
+    let mut region = TrustRegion::new(settings);
     let mut history = Vec::new();
-    let mut last_vc = f64::INFINITY;
-    let mut failures = 0;
-    let mut creep = 0usize;
-    let mut outcome: Option<(Status, String)> = None;
+    let mut outcome: Option<Outcome> = None;
 
     for iteration in 1..=settings.max_iterations {
         let t0 = Instant::now();
-        let data = tr.assemble(&reference, radius, settings.proximal_weight);
-        let mut sub = match tr.solve_with(conic, &data) {
-            Ok(s) => s,
+        let candidate = match step::step(tr, conic, &reference, region.radius, settings) {
+            Ok(c) => c,
             Err(msg) => {
-                // A failed subproblem is treated like a rejected step.
-                failures += 1;
-                radius /= settings.shrink;
-                if radius < settings.trust_region_min || failures > 5 {
+                if region.after_failure(settings) {
                     outcome = Some((Status::SolverFailed, msg));
                     break;
                 }
                 continue;
             }
         };
-        let mut merit = tr.merit(&sub.trajectory);
-        let mut step = inf_norm_diff(&sub.z, &z_ref);
-        let predicted = j_ref - sub.model_cost;
-        let ratio = |j: f64| {
-            if predicted.abs() > 1e-12 {
-                (j_ref - j) / predicted
-            } else {
-                1.0
-            }
-        };
-        let mut rho = ratio(merit.total);
-        // A poor candidate is judged after its second-order correction, when
-        // that agrees better with the model (same predicted decrease).
-        let mut corrected = false;
-        if settings.second_order_correction && rho < settings.rho1 && step > settings.step_tolerance
-        {
-            if let Some((z, t)) = tr.second_order_correction(&data, &sub) {
-                let m = tr.merit(&t);
-                if ratio(m.total) > rho {
-                    sub.z = z;
-                    sub.trajectory = t;
-                    step = inf_norm_diff(&sub.z, &z_ref);
-                    merit = m;
-                    rho = ratio(m.total);
-                    corrected = true;
-                }
-            }
-        }
-        // Converged: the step (or the predicted decrease) is negligible, and the
-        // candidate meets the nonlinear collocation defects — unless it still
-        // needs so much virtual control that no step can fix it.
-        let converged = (step <= settings.step_tolerance
-            || predicted.abs() <= 1e-10 * (1.0 + j_ref.abs()))
-            && (merit.defect_max <= settings.defect_tolerance
-                || sub.virtual_control >= INFEASIBLE_VIRTUAL_CONTROL);
-        let accepted = converged || rho >= settings.rho0;
+        let converged = classify::converged(&candidate, reference.merit, settings);
+        let accepted = TrustRegion::accepts(converged, candidate.rho, settings);
 
         let record = IterationRecord {
             iteration,
-            cost: merit.total,
-            final_mass_kg: sub.trajectory.x[tr.layout.n][ix::OMEGA].exp(),
-            step,
-            virtual_control: sub.virtual_control,
-            defect: merit.defect_max,
-            trust_radius: radius,
-            rho,
+            cost: candidate.merit.total,
+            final_mass_kg: candidate.sub.trajectory.x[tr.layout.n][ix::OMEGA].exp(),
+            step: candidate.step,
+            virtual_control: candidate.sub.virtual_control,
+            defect: candidate.merit.defect_max,
+            trust_radius: region.radius,
+            rho: candidate.rho,
             accepted,
-            corrected,
-            ipm_iterations: sub.ipm_iterations,
+            corrected: candidate.corrected,
+            ipm_iterations: candidate.sub.ipm_iterations,
             ms: t0.elapsed().as_secs_f64() * 1e3,
         };
         observer.on_iteration(&record);
         history.push(record);
 
+        let (rho, step, vc) = (candidate.rho, candidate.step, candidate.sub.virtual_control);
         if accepted {
-            reference = sub.trajectory;
-            z_ref = sub.z;
-            j_ref = merit.total;
-            last_vc = sub.virtual_control;
+            reference.accept(candidate);
         }
         if converged {
-            let vc = sub.virtual_control;
-            outcome = Some(if vc <= settings.virtual_control_tolerance {
-                (Status::Solved, String::new())
-            } else if vc >= INFEASIBLE_VIRTUAL_CONTROL {
-                (Status::Infeasible, infeasibility_reason(tr, &reference, vc))
-            } else {
-                (
-                    Status::NotConverged,
-                    format!(
-                        "the step converged but the virtual control {vc:.2e} is above the tolerance {:.1e}",
-                        settings.virtual_control_tolerance
-                    ),
-                )
-            });
-            break;
-        }
-        // A search that keeps needing large virtual control while its merit
-        // barely moves has settled on a minimum of the constraint violation.
-        if let Some(reason) = stalled(&history) {
-            outcome = Some((
-                Status::Infeasible,
-                format!(
-                    "{}; {reason}",
-                    infeasibility_reason(tr, &reference, sub.virtual_control)
-                ),
+            outcome = Some(classify::at_convergence(
+                tr,
+                &reference.trajectory,
+                vc,
+                settings,
             ));
             break;
         }
-        // Creep: on a feasible reference, accepted steps that all reach the
-        // trust region while the model over-predicts (ρ < ρ2). The ∞-norm
-        // linear model moves every free variable to the box, so its steps
-        // never shrink on their own near the optimum; CREEP_WINDOW such
-        // steps in a row are treated like ρ < ρ1. (Without the second-order
-        // correction the rejected steps shrink the radius instead.)
-        let creeping = settings.second_order_correction
-            && accepted
-            && rho < settings.rho2
-            && step >= CREEP_BOUND * radius
-            && last_vc <= settings.virtual_control_tolerance;
-        creep = if creeping { creep + 1 } else { 0 };
-        if !accepted || rho < settings.rho1 || creep >= CREEP_WINDOW {
-            radius /= settings.shrink;
-            creep = 0;
-        } else if rho >= settings.rho2 {
-            radius = (radius * settings.grow).min(settings.trust_region_max);
+        if let Some(stall) = classify::at_stall(tr, &reference.trajectory, vc, &history) {
+            outcome = Some(stall);
+            break;
         }
-        if radius < settings.trust_region_min {
-            // No step, however short, lowers the merit: the reference is a
-            // stationary point of it. It is a solution if it is feasible.
-            let feasible = tr.merit(&reference).defect_max <= settings.defect_tolerance
-                && last_vc <= settings.virtual_control_tolerance;
-            outcome = Some(if feasible {
-                (Status::Solved, String::new())
-            } else {
-                (
-                    Status::NotConverged,
-                    format!(
-                        "trust region shrank below {:.1e} without convergence; best iterate returned",
-                        settings.trust_region_min
-                    ),
-                )
-            });
+        region.update(accepted, rho, step, reference.virtual_control, settings);
+        if region.collapsed(settings) {
+            outcome = Some(classify::at_collapse(
+                tr,
+                &reference.trajectory,
+                reference.virtual_control,
+                settings,
+            ));
             break;
         }
     }
 
-    let (mut status, mut message) = outcome.unwrap_or((
-        Status::NotConverged,
-        format!(
-            "no convergence in {} iterations; best iterate returned",
-            settings.max_iterations
-        ),
-    ));
-    let checks = solution::check(tr, &reference, last_vc);
-    if status == Status::Solved {
-        if checks.relaxation_gap > settings.relaxation_gap_tolerance {
-            status = Status::NonPhysical;
-            message = format!(
-                "lossless relaxation not tight: max(1 - |T|/sigma) = {:.3e} > {:.1e}",
-                checks.relaxation_gap, settings.relaxation_gap_tolerance
-            );
-        } else if checks.min_altitude_margin_m < -GROUND_TOLERANCE_M {
-            status = Status::NonPhysical;
-            message = format!(
-                "the trajectory passes {:.3e} m below the landing altitude (more than the {GROUND_TOLERANCE_M} m tolerance)",
-                -checks.min_altitude_margin_m
-            );
-        } else if checks.thrust_bound_violation_n > THRUST_TOLERANCE_FRAC * tr.model.max_thrust_n {
-            status = Status::NonPhysical;
-            message = format!(
-                "the thrust leaves [T_min, T_max] by {:.3e} N (more than {THRUST_TOLERANCE_FRAC:.0e} of T_max)",
-                checks.thrust_bound_violation_n
-            );
-        } else if checks.thrust_backwards() {
-            status = Status::NonPhysical;
-            message = format!(
-                "thrust points backwards out of the nozzle (min cosine {:.3})",
-                checks.thrust_alignment_min
-            );
-        }
-    }
+    let outcome = outcome.unwrap_or_else(|| classify::at_iteration_limit(settings));
+    let checks = solution::check(tr, &reference.trajectory, reference.virtual_control);
+    let (status, message) = classify::physical(tr, outcome, &checks, settings);
     let ms = start.elapsed().as_secs_f64() * 1e3;
-    Solution::new(tr, reference, status, message, checks, history, ms)
+    Solution::new(
+        tr,
+        reference.trajectory,
+        status,
+        message,
+        checks,
+        history,
+        ms,
+    )
 }

@@ -1,15 +1,17 @@
 //! The convex subproblem P4 (Eq. 26–30) of a [`Transcription`] as sparse
 //! conic data for Clarabel, its second-order correction (Clarabel's QDLDL),
-//! and its solve: the one place that builds solver data, and with
-//! [`super::conic`] the only one that names Clarabel's types.
+//! and its solve: the one place that builds solver data. With
+//! [`super::socp`] (the data's types) and [`super::conic`] (the solver),
+//! the only files that name Clarabel's types.
 //!
 //! Every constraint row is divided by the scale of the quantity it
 //! constrains; the layout and the scaling are the transcription's.
 
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{SolverStatus, SupportedConeT};
+use clarabel::solver::SupportedConeT;
 
 use super::conic::ConicSolver;
+use super::socp::{ConicData, SubproblemResult};
 use crate::input::scenario::Formulation;
 use crate::method::scvx::transcription::{vector_residuals, Trajectory, Transcription};
 use crate::problem::dynamics::{self, ix, NX};
@@ -19,36 +21,6 @@ use crate::problem::dynamics::{self, ix, NX};
 /// to ~1e-10, yet it keeps the factorization quasi-definite when A_eq is
 /// rank-deficient.
 const CORRECTION_REGULARIZATION: f64 = 1e-10;
-
-/// Conic data of one subproblem: minimize qᵀz s.t. A z + s = b, s ∈ cones.
-#[derive(Debug, Clone)]
-pub struct ConicData {
-    /// Upper triangle of the quadratic cost: the proximal term w·‖ẑ − ẑ_ref‖².
-    pub p: CscMatrix<f64>,
-    /// Linear cost of the convex model L (cost plus exact penalty).
-    pub q_model: Vec<f64>,
-    /// Linear cost including the proximal term's linear part.
-    pub q: Vec<f64>,
-    pub a: CscMatrix<f64>,
-    pub b: Vec<f64>,
-    pub cones: Vec<SupportedConeT<f64>>,
-}
-
-/// The answer of one subproblem.
-#[derive(Debug, Clone)]
-pub struct SubproblemResult {
-    pub trajectory: Trajectory,
-    /// Scaled trajectory variables.
-    pub z: Vec<f64>,
-    /// Objective of the convex model L(z) (cost plus linear penalty).
-    pub model_cost: f64,
-    /// Largest virtual control or buffer (scaled ∞-norm).
-    pub virtual_control: f64,
-    pub ipm_iterations: u32,
-    pub status: SolverStatus,
-    /// Virtual control ν⁺ − ν⁻ of every collocation defect (node-major, N·NX).
-    pub defect_virtual_control: Vec<f64>,
-}
 
 struct Rows {
     i: Vec<usize>,
@@ -85,6 +57,39 @@ impl Rows {
     }
 }
 
+/// The constraint matrix A, right-hand side b and cones of the stacked
+/// blocks: equalities (the zero cone), inequalities (the non-negative
+/// cone), then the second-order cones of three rows each.
+fn stack(
+    eq: Rows,
+    ineq: Rows,
+    soc: Rows,
+    n_var: usize,
+) -> (CscMatrix<f64>, Vec<f64>, Vec<SupportedConeT<f64>>) {
+    let (m_eq, m_in, m_soc) = (eq.b.len(), ineq.b.len(), soc.b.len());
+    let mut rows = eq.i;
+    rows.extend(ineq.i.iter().map(|r| r + m_eq));
+    rows.extend(soc.i.iter().map(|r| r + m_eq + m_in));
+    let mut cols = eq.j;
+    cols.extend(ineq.j);
+    cols.extend(soc.j);
+    let mut vals = eq.v;
+    vals.extend(ineq.v);
+    vals.extend(soc.v);
+    let mut b = eq.b;
+    b.extend(ineq.b);
+    b.extend(soc.b);
+    let m = m_eq + m_in + m_soc;
+    let a = CscMatrix::new_from_triplets(m, n_var, rows, cols, vals);
+
+    let mut cones = vec![
+        SupportedConeT::ZeroConeT(m_eq),
+        SupportedConeT::NonnegativeConeT(m_in),
+    ];
+    cones.extend((0..m_soc / 3).map(|_| SupportedConeT::SecondOrderConeT(3)));
+    (a, b, cones)
+}
+
 impl Transcription {
     /// Assemble P4 linearized about `reference`, with an ∞-norm trust region of
     /// scaled radius `radius` (Eq. 29).
@@ -95,15 +100,49 @@ impl Transcription {
     /// subproblem jumps between vertices on singular arcs — the gimbal rate χ
     /// chatters between ±χ_max — and the trust region binds on every iteration.
     pub fn assemble(&self, reference: &Trajectory, radius: f64, proximal_weight: f64) -> ConicData {
-        let l = self.layout;
-        let sc = &self.scaling;
-        let n = l.n;
         let zref = self.to_scaled(reference);
-        let tf = reference.tf_s;
 
         let mut eq = Rows::new();
-        // Collocation defects, linearized (Eq. 24–26) with virtual control.
-        for i in 0..n {
+        self.defect_rows(&mut eq, reference, &zref);
+        self.boundary_rows(&mut eq);
+        match self.form {
+            Formulation::Vector => self.vector_direction_rows(&mut eq, reference),
+            Formulation::Paper => self.paper_direction_rows(&mut eq, reference),
+            Formulation::Exact => {}
+        }
+
+        let mut ineq = Rows::new();
+        self.trust_region_rows(&mut ineq, &zref, radius);
+        self.thrust_rows(&mut ineq, reference);
+        self.nonnegative_rows(&mut ineq);
+
+        let mut soc = Rows::new();
+        // The vector formulation has no cone: its linearized equalities already
+        // fix |T| = σ, and the cone would forbid the first-order rotation of T
+        // (a tangent step lengthens T by σ·Δφ²/2), stalling the iteration.
+        if self.form == Formulation::Paper {
+            self.thrust_cone_rows(&mut soc);
+        }
+
+        let (a, b, cones) = stack(eq, ineq, soc, self.layout.n_var());
+        let (p, q_model, q) = self.cost(&zref, proximal_weight);
+        ConicData {
+            p,
+            q_model,
+            q,
+            a,
+            b,
+            cones,
+        }
+    }
+
+    /// Collocation defects, linearized (Eq. 24–26) with virtual control:
+    /// N·NX rows, node-major (the second-order correction relies on it).
+    fn defect_rows(&self, eq: &mut Rows, reference: &Trajectory, zref: &[f64]) {
+        let l = self.layout;
+        let sc = &self.scaling;
+        let tf = reference.tf_s;
+        for i in 0..l.n {
             let lin = dynamics::linearize(
                 &self.model,
                 self.form,
@@ -139,7 +178,14 @@ impl Transcription {
                 eq.finish_row(rhs);
             }
         }
-        // Boundary conditions (Eq. 4).
+    }
+
+    /// Boundary conditions (Eq. 4): the whole initial state, and the final
+    /// position, velocity and attitude (x and Vx with penalized misses when
+    /// the terminal condition is soft).
+    fn boundary_rows(&self, eq: &mut Rows) {
+        let l = self.layout;
+        let sc = &self.scaling;
         for c in 0..NX {
             eq.push(
                 &[(l.x(0, c), 1.0)],
@@ -152,62 +198,73 @@ impl Transcription {
             match soft {
                 Some(j) if l.soft_terminal => eq.push(
                     &[
-                        (l.x(n, c), 1.0),
+                        (l.x(l.n, c), 1.0),
                         (l.terminal_miss(j, 0), -1.0),
                         (l.terminal_miss(j, 1), 1.0),
                     ],
                     rhs,
                 ),
-                _ => eq.push(&[(l.x(n, c), 1.0)], rhs),
+                _ => eq.push(&[(l.x(l.n, c), 1.0)], rhs),
             }
         }
-        // Paper formulation: linearized direction constraint (Eq. 27).
-        if self.form == Formulation::Vector {
-            // T ∥ nozzle axis and |T| = σ, linearized in (T, σ, φ = θ + δ).
-            let s_t = sc.u_scale[0];
-            let offs = sc.x_offset[ix::THETA] + sc.x_offset[ix::DELTA];
-            for i in 0..n {
-                let (x, u) = (&reference.x[i], &reference.u[i]);
-                let phi = x[ix::THETA] + x[ix::DELTA];
-                let (sp, cp) = phi.sin_cos();
-                let (g1, _) = vector_residuals(x, u);
-                let along = u[0] * sp + u[1] * cp;
-                let rows: [(&[(usize, f64)], f64); 2] = [
-                    (&[(l.u(i, 0), cp), (l.u(i, 1), -sp)], -along),
-                    (&[(l.u(i, 2), 1.0), (l.u(i, 0), -sp), (l.u(i, 1), -cp)], -g1),
-                ];
-                for (r, (t_entries, c_phi)) in rows.into_iter().enumerate() {
-                    for &(j, v) in t_entries {
-                        eq.entry(j, v);
-                    }
-                    eq.entry(l.x(i, ix::THETA), c_phi * sc.x_scale[ix::THETA] / s_t);
-                    eq.entry(l.x(i, ix::DELTA), c_phi * sc.x_scale[ix::DELTA] / s_t);
-                    eq.entry(l.dir(i, r, 0), 1.0);
-                    eq.entry(l.dir(i, r, 1), -1.0);
-                    eq.finish_row((c_phi * phi - c_phi * offs) / s_t);
-                }
-            }
-        }
-        if self.form == Formulation::Paper {
-            for i in 0..n {
-                let (phi, kx, kz) = self.direction(&reference.x[i], &reference.u[i]);
-                let u = &reference.u[i];
-                eq.push(
-                    &[
-                        (l.u(i, 0), kx * sc.u_scale[0]),
-                        (l.u(i, 1), kz * sc.u_scale[1]),
-                        (l.x(i, ix::THETA), -sc.x_scale[ix::THETA]),
-                        (l.x(i, ix::DELTA), -sc.x_scale[ix::DELTA]),
-                        (l.dir(i, 0, 0), 1.0),
-                        (l.dir(i, 0, 1), -1.0),
-                    ],
-                    -phi + kx * u[0] + kz * u[1] + sc.x_offset[ix::THETA] + sc.x_offset[ix::DELTA],
-                );
-            }
-        }
+    }
 
-        let mut ineq = Rows::new();
-        // Variable bounds intersected with the trust region (Eq. 29).
+    /// Vector formulation: T ∥ nozzle axis and |T| = σ, linearized in
+    /// (T, σ, φ = θ + δ), two rows per node with virtual control.
+    fn vector_direction_rows(&self, eq: &mut Rows, reference: &Trajectory) {
+        let l = self.layout;
+        let sc = &self.scaling;
+        let s_t = sc.u_scale[0];
+        let offs = sc.x_offset[ix::THETA] + sc.x_offset[ix::DELTA];
+        for i in 0..l.n {
+            let (x, u) = (&reference.x[i], &reference.u[i]);
+            let phi = x[ix::THETA] + x[ix::DELTA];
+            let (sp, cp) = phi.sin_cos();
+            let (g1, _) = vector_residuals(x, u);
+            let along = u[0] * sp + u[1] * cp;
+            let rows: [(&[(usize, f64)], f64); 2] = [
+                (&[(l.u(i, 0), cp), (l.u(i, 1), -sp)], -along),
+                (&[(l.u(i, 2), 1.0), (l.u(i, 0), -sp), (l.u(i, 1), -cp)], -g1),
+            ];
+            for (r, (t_entries, c_phi)) in rows.into_iter().enumerate() {
+                for &(j, v) in t_entries {
+                    eq.entry(j, v);
+                }
+                eq.entry(l.x(i, ix::THETA), c_phi * sc.x_scale[ix::THETA] / s_t);
+                eq.entry(l.x(i, ix::DELTA), c_phi * sc.x_scale[ix::DELTA] / s_t);
+                eq.entry(l.dir(i, r, 0), 1.0);
+                eq.entry(l.dir(i, r, 1), -1.0);
+                eq.finish_row((c_phi * phi - c_phi * offs) / s_t);
+            }
+        }
+    }
+
+    /// Paper formulation: the linearized direction constraint (Eq. 27), one
+    /// row per node with virtual control.
+    fn paper_direction_rows(&self, eq: &mut Rows, reference: &Trajectory) {
+        let l = self.layout;
+        let sc = &self.scaling;
+        for i in 0..l.n {
+            let (phi, kx, kz) = self.direction(&reference.x[i], &reference.u[i]);
+            let u = &reference.u[i];
+            eq.push(
+                &[
+                    (l.u(i, 0), kx * sc.u_scale[0]),
+                    (l.u(i, 1), kz * sc.u_scale[1]),
+                    (l.x(i, ix::THETA), -sc.x_scale[ix::THETA]),
+                    (l.x(i, ix::DELTA), -sc.x_scale[ix::DELTA]),
+                    (l.dir(i, 0, 0), 1.0),
+                    (l.dir(i, 0, 1), -1.0),
+                ],
+                -phi + kx * u[0] + kz * u[1] + sc.x_offset[ix::THETA] + sc.x_offset[ix::DELTA],
+            );
+        }
+    }
+
+    /// Variable bounds intersected with the trust region (Eq. 29): the box
+    /// of ∞-norm radius `radius` about the reference (clamped into the
+    /// bounds), two rows per trajectory variable.
+    fn trust_region_rows(&self, ineq: &mut Rows, zref: &[f64], radius: f64) {
         for (p, (&zr, (&lo, &hi))) in zref.iter().zip(self.lo.iter().zip(&self.hi)).enumerate() {
             let centre = zr.clamp(lo, hi);
             let hi = hi.min(centre + radius);
@@ -215,12 +272,18 @@ impl Transcription {
             ineq.push(&[(p, 1.0)], hi);
             ineq.push(&[(p, -1.0)], -lo);
         }
-        // Linearized thrust bounds (Eq. 28) with penalized buffers.
+    }
+
+    /// Linearized thrust bounds (Eq. 28) with penalized buffers, and the
+    /// soft margin's interval when it is on.
+    fn thrust_rows(&self, ineq: &mut Rows, reference: &Trajectory) {
+        let l = self.layout;
+        let sc = &self.scaling;
         let si = self.sigma_index();
         let s_sigma = sc.u_scale[si];
         let (s_om, o_om) = (sc.x_scale[ix::OMEGA], sc.x_offset[ix::OMEGA]);
         let (lo, hi) = self.margin_thrust_n();
-        for i in 0..n {
+        for i in 0..l.n {
             let w0 = reference.x[i][ix::OMEGA];
             let e = (-w0).exp();
             // sign·(σ − T e^{−ω̄}(1 − (ω − ω̄))) ≤ slack: the engine's bounds
@@ -245,48 +308,35 @@ impl Transcription {
                 );
             }
         }
-        // Penalty, margin and terminal-miss variables are non-negative.
+    }
+
+    /// Penalty, margin and terminal-miss variables are non-negative.
+    fn nonnegative_rows(&self, ineq: &mut Rows) {
+        let l = self.layout;
         for p in l.n_primal()..l.n_var() {
             ineq.push(&[(p, -1.0)], 0.0);
         }
+    }
 
-        let mut soc = Rows::new();
-        // The vector formulation has no cone: its linearized equalities already
-        // fix |T| = σ, and the cone would forbid the first-order rotation of T
-        // (a tangent step lengthens T by σ·Δφ²/2), stalling the iteration.
-        if self.form == Formulation::Paper {
-            // ‖(Txm, Tzm)‖ ≤ σ (Eq. 19); the three share one scale.
-            for i in 0..n {
-                soc.push(&[(l.u(i, 2), -1.0)], 0.0);
-                soc.push(&[(l.u(i, 0), -1.0)], 0.0);
-                soc.push(&[(l.u(i, 1), -1.0)], 0.0);
-            }
+    /// The paper formulation's cone ‖(Txm, Tzm)‖ ≤ σ (Eq. 19), three rows
+    /// per node (σ first); the three share one scale.
+    fn thrust_cone_rows(&self, soc: &mut Rows) {
+        let l = self.layout;
+        for i in 0..l.n {
+            soc.push(&[(l.u(i, 2), -1.0)], 0.0);
+            soc.push(&[(l.u(i, 0), -1.0)], 0.0);
+            soc.push(&[(l.u(i, 1), -1.0)], 0.0);
         }
+    }
 
-        let (m_eq, m_in, m_soc) = (eq.b.len(), ineq.b.len(), soc.b.len());
-        let mut rows = eq.i;
-        rows.extend(ineq.i.iter().map(|r| r + m_eq));
-        rows.extend(soc.i.iter().map(|r| r + m_eq + m_in));
-        let mut cols = eq.j;
-        cols.extend(ineq.j);
-        cols.extend(soc.j);
-        let mut vals = eq.v;
-        vals.extend(ineq.v);
-        vals.extend(soc.v);
-        let mut b = eq.b;
-        b.extend(ineq.b);
-        b.extend(soc.b);
-        let m = m_eq + m_in + m_soc;
-        let a = CscMatrix::new_from_triplets(m, l.n_var(), rows, cols, vals);
-
-        let mut cones = vec![
-            SupportedConeT::ZeroConeT(m_eq),
-            SupportedConeT::NonnegativeConeT(m_in),
-        ];
-        cones.extend((0..m_soc / 3).map(|_| SupportedConeT::SecondOrderConeT(3)));
-
+    /// The cost: the linear model's (−ω̂(t_f), the exact penalty on virtual
+    /// control and buffers, the margin's and the terminal miss's weights),
+    /// and with the proximal term w·‖ẑ − ẑ_ref‖² its quadratic part and the
+    /// linear part it adds. Returns (P, q_model, q).
+    fn cost(&self, zref: &[f64], proximal_weight: f64) -> (CscMatrix<f64>, Vec<f64>, Vec<f64>) {
+        let l = self.layout;
         let mut q = vec![0.0; l.n_var()];
-        q[l.x(n, ix::OMEGA)] = -1.0;
+        q[l.x(l.n, ix::OMEGA)] = -1.0;
         q[l.n_primal()..l.n_penalty_end()].fill(self.penalty);
         q[l.n_penalty_end()..l.n_margin_end()].fill(self.margin_weight);
         q[l.n_margin_end()..].fill(self.terminal_weight);
@@ -306,14 +356,7 @@ impl Transcription {
         } else {
             CscMatrix::zeros((l.n_var(), l.n_var()))
         };
-        ConicData {
-            p,
-            q_model,
-            q,
-            a,
-            b,
-            cones,
-        }
+        (p, q_model, q)
     }
 
     /// Second-order correction of a subproblem's answer `sub` (Nocedal &
@@ -388,7 +431,7 @@ impl Transcription {
 
     /// Solve one subproblem with Clarabel; an error names the solver status when it fails.
     pub fn solve(&self, data: &ConicData) -> Result<SubproblemResult, String> {
-        super::conic::solve_once(self, data)
+        self.solve_with(&mut ConicSolver::new(), data)
     }
 
     /// Solve one subproblem with a solver kept across iterations (set up on
