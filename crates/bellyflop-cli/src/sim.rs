@@ -192,7 +192,7 @@ fn write(
             r.time_s,
             r.solve_ms,
             r.iterations,
-            r.status,
+            r.status.as_str(),
             r.max_defect,
             r.virtual_control,
             r.wind_estimate_mps,

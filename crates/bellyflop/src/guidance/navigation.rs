@@ -185,7 +185,8 @@ fn predict(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::plant::{rk4_step, TruthParams};
+    use crate::sim::plant::rk4_step;
+    use crate::sim::truth::TruthParams;
     use crate::Scenario;
 
     /// The position filter cuts white navigation noise by more than 5×

@@ -62,7 +62,7 @@ use serde::{Deserialize, Serialize};
 use crate::input::error::InputError;
 use crate::input::scenario::InitialState;
 use crate::sim::check_range;
-use crate::sim::plant::{PlantState, TruthParams};
+use crate::sim::truth::{PlantState, TruthParams};
 
 /// Dispersions of a Monte-Carlo campaign. Missing fields take the defaults
 /// (see the module documentation); 0 switches a dispersion off.

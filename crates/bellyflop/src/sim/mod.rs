@@ -7,6 +7,9 @@
 //!   ([`saturate`]); a fixed-step RK4 integrator with zero-order hold on the
 //!   command and the wind ([`Plant`]); touchdown, propellant and time-limit
 //!   detection ([`Outcome`], [`Touchdown`]).
+//! - [`truth`]: the true vehicle's state ([`PlantState`]) and its
+//!   deviations from the guidance model ([`TruthParams`]), used by both the
+//!   plant and the dispersions.
 //! - [`verdict`]: touchdowns judged `landed`, `hard_landing` or `crash`
 //!   ([`TouchdownLimits`], [`RunOutcome`]).
 //! - [`disturbance`]: the Monte-Carlo dispersions ([`Dispersions`], defaults
@@ -24,13 +27,15 @@
 
 pub mod disturbance;
 pub mod plant;
+pub mod truth;
 pub mod verdict;
 
 pub use disturbance::{Dispersions, InitialOffset, Realization};
 pub use plant::{
-    rk4_step, saturate, truth_rhs, Command, Outcome, Plant, PlantConfig, PlantState, Saturation,
-    SaturationCounts, StepResult, Touchdown, TruthParams,
+    rk4_step, saturate, truth_rhs, Command, Outcome, Plant, PlantConfig, Saturation,
+    SaturationCounts, StepResult, Touchdown,
 };
+pub use truth::{PlantState, TruthParams};
 pub use verdict::{RunOutcome, TouchdownLimits};
 
 use crate::input::error::InputError;

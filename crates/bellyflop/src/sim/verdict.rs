@@ -192,7 +192,7 @@ impl TouchdownLimits {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::plant::PlantState;
+    use crate::sim::truth::PlantState;
 
     fn touchdown(x: f64, vx: f64, vz: f64, pitch_deg: f64) -> Touchdown {
         Touchdown {
