@@ -36,8 +36,9 @@ pub mod sim;
 pub mod solution;
 pub mod verify;
 
-pub use collocation::mesh::{Mesh, MeshLayout};
+pub use collocation::mesh::Mesh;
 pub use input::error::InputError;
+pub use input::mesh_layout::MeshLayout;
 pub use input::scenario::{Case, Scenario};
 pub use input::settings::{Formulation, Method, SolverSettings};
 pub use method::observer::Observer;

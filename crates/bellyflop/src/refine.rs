@@ -37,7 +37,8 @@
 //! solves each pass cold.
 
 use crate::collocation::control_profile::{activity, Activity};
-use crate::collocation::mesh::{Mesh, MeshLayout};
+use crate::collocation::mesh::Mesh;
+use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::Scenario;
 use crate::input::settings::{RefinementSettings, SolverSettings};
 use crate::method::observer::Observer;

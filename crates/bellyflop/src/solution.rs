@@ -2,7 +2,8 @@
 
 use serde::Serialize;
 
-use crate::collocation::mesh::{Mesh, MeshLayout};
+use crate::collocation::mesh::Mesh;
+use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::{Formulation, Method};
 use crate::method::scvx::transcription::{Trajectory, Transcription};
 use crate::problem::dynamics::{self, ix};

@@ -6,8 +6,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::collocation::mesh::{Mesh, MeshLayout};
 use crate::input::error::InputError;
+use crate::input::mesh_layout::MeshLayout;
 pub use crate::input::settings::{Formulation, Method, SolverSettings};
 
 /// Vehicle parameters (paper Table 1, plus the drag coefficient from NOTES.md).
@@ -130,18 +130,6 @@ pub struct Discretization {
     /// `intervals` = M, so the two counts always describe the mesh solved on.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mesh: Option<MeshLayout>,
-}
-
-impl Discretization {
-    /// The collocation mesh: the explicit `[discretization.mesh]` layout
-    /// when given, else the uniform split of `nodes` over `intervals`. The
-    /// discretization must have passed validation.
-    pub fn collocation_mesh(&self) -> Mesh {
-        match &self.mesh {
-            Some(layout) => Mesh::from_layout(layout),
-            None => Mesh::uniform(self.nodes, self.intervals),
-        }
-    }
 }
 
 fn one() -> usize {

@@ -12,8 +12,8 @@
 //! describe a rocket landing (or would break the numerics), not merely
 //! unusual vehicles. The paper's case (Chen, Ma, Wang, Su 2023, Table 1 and
 //! Section 4) sits well inside every range.
-use crate::collocation::mesh::MeshLayout;
 use crate::input::error::InputError;
+use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::{
     Discretization, Environment, InitialState, Scenario, SolverSettings, TerminalState, Vehicle,
 };
@@ -875,7 +875,7 @@ mod tests {
             Ok(())
         );
         // The uniform layout, spelled out.
-        let u = crate::collocation::mesh::MeshLayout::uniform(20, 4);
+        let u = crate::input::mesh_layout::MeshLayout::uniform(20, 4);
         assert_eq!(scenario(&on_mesh(&u.breaks_tau, &u.points)), Ok(()));
     }
 
@@ -970,7 +970,7 @@ mod tests {
     fn mesh_point_total_outside_the_node_range_is_out_of_range() {
         for points in [&[3][..], &[100, 100, 2]] {
             let breaks: Vec<f64> =
-                crate::collocation::mesh::MeshLayout::uniform(10, points.len()).breaks_tau;
+                crate::input::mesh_layout::MeshLayout::uniform(10, points.len()).breaks_tau;
             let mut s = on_mesh(&breaks, points);
             s.discretization.nodes = 20;
             let (f, range) = rejected(&s);

@@ -1566,7 +1566,7 @@ mod tests {
 #[cfg(test)]
 mod mesh_tests {
     use super::*;
-    use crate::collocation::mesh::MeshLayout;
+    use crate::input::mesh_layout::MeshLayout;
     use crate::input::scenario::{Case, Scenario};
     use crate::method::scvx::Silent;
 

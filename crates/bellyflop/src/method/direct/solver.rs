@@ -2,9 +2,9 @@
 //! straight line, a pass on a new mesh warm from the last answer (primal–dual
 //! with its multipliers), and a re-plan from the shifted plan.
 
-use crate::collocation::mesh::MeshLayout;
 use crate::collocation::plan::shifted_reference;
 use crate::collocation::trajectory::Trajectory;
+use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::Scenario;
 use crate::input::settings::{Formulation, SolverSettings};
 use crate::method::direct::nlp::{Duals, Nlp};
