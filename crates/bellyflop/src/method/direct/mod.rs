@@ -18,6 +18,13 @@
 //!
 //! The driver is [`solve_nlp`]; each iteration is reported to an
 //! [`Observer`] as a [`DirectIteration`].
+//!
+//! IPOPT's strategy objects, each owning its state: the iteration loop in
+//! `driver`; the iterate and its bounds in `iterate`; the Newton system and
+//! its workspace in `newton`; the barrier update (monotone and adaptive) in
+//! `barrier`; the inertia correction in `inertia`; the filter line search
+//! with second-order corrections in `line_search`; the feasibility
+//! restoration in `restoration`.
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
