@@ -1,0 +1,245 @@
+//! The interior-point iteration (Algorithm A of Wächter & Biegler 2006):
+//! at each iterate, the optimality test, the barrier update, the
+//! inertia-correcting factorization, the Newton step, and the filter line
+//! search or, when it fails, the feasibility restoration; each iteration is
+//! reported to the [`Observer`].
+
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+use crate::input::settings::DirectSettings;
+use crate::method::direct::barrier::Barrier;
+use crate::method::direct::inertia::InertiaCorrection;
+use crate::method::direct::iterate::{inf_norm, l1_norm, Iterate};
+use crate::method::direct::line_search::{FilterLineSearch, LineSearch};
+use crate::method::direct::newton::Newton;
+use crate::method::direct::nlp::Nlp;
+use crate::method::direct::restoration::Restoration;
+use crate::method::direct::{NlpResult, Start, BOUND_PUSH, WARM_BOUND_PUSH};
+use crate::method::observer::Observer;
+use crate::solution::{DirectIteration, Status};
+
+/// How a solve ended, when it ended before its iteration limit.
+type Outcome = (Status, String);
+
+/// What an iteration reports: the iterate's infeasibilities, and the step
+/// taken from it.
+struct Progress {
+    primal: f64,
+    dual: f64,
+    step: f64,
+    trials: usize,
+    restoration: bool,
+}
+
+pub(super) struct Driver<'a> {
+    nlp: &'a Nlp,
+    settings: &'a DirectSettings,
+    sys: Newton<'a>,
+    barrier: Barrier,
+    inertia: InertiaCorrection,
+    search: FilterLineSearch,
+}
+
+impl<'a> Driver<'a> {
+    pub(super) fn new(nlp: &'a Nlp, settings: &'a DirectSettings) -> Self {
+        Driver {
+            nlp,
+            settings,
+            sys: Newton::new(nlp),
+            barrier: Barrier::new(settings),
+            inertia: InertiaCorrection::default(),
+            search: FilterLineSearch::new(),
+        }
+    }
+
+    fn final_mass_kg(&self, w: &[f64]) -> f64 {
+        let k = self
+            .nlp
+            .idx(self.nlp.n, crate::method::direct::nlp::slot::M);
+        self.nlp.physical(crate::method::direct::nlp::slot::M, w[k])
+    }
+
+    pub(super) fn run(mut self, start: Start, observer: &mut dyn Observer) -> NlpResult {
+        let mut it = self.initial_iterate(start);
+        let mut history = Vec::with_capacity(self.settings.max_iterations);
+        let mut outcome: Option<Outcome> = None;
+
+        for iteration in 1..=self.settings.max_iterations {
+            let t0 = Instant::now();
+            let p = match self.iteration(&mut it) {
+                ControlFlow::Continue(p) => p,
+                ControlFlow::Break(end) => {
+                    outcome = Some(end);
+                    break;
+                }
+            };
+            let record = DirectIteration {
+                iteration,
+                mesh_nodes: self.nlp.n,
+                final_mass_kg: self.final_mass_kg(&it.w),
+                primal_infeasibility: p.primal,
+                dual_infeasibility: p.dual,
+                mu: self.barrier.mu,
+                step: p.step,
+                inertia_correction: self.inertia.delta_w,
+                line_search_trials: p.trials,
+                restoration: p.restoration,
+                ms: t0.elapsed().as_secs_f64() * 1e3,
+            };
+            observer.on_direct_iteration(&record);
+            history.push(record);
+        }
+        self.finish(it, outcome, history)
+    }
+
+    /// The starting iterate (§3.6): the point pushed inside its bounds, the
+    /// bound multipliers (cold: z = 1; warm: the given z, at least μ_0/s),
+    /// λ given or by least squares; and θ_max, θ_min from its infeasibility.
+    fn initial_iterate(&mut self, start: Start) -> Iterate {
+        let nlp = self.nlp;
+        let (nv, nc) = (nlp.n_var(), nlp.n_con());
+        let (w0, lambda0, warm) = match start {
+            Start::Primal(w0, lambda0) => (w0, lambda0, None),
+            Start::PrimalDual(w0, duals) => (w0, Some(&duals.lambda[..]), Some(duals)),
+        };
+        let mut w = w0.to_vec();
+        let push = if warm.is_some() {
+            WARM_BOUND_PUSH
+        } else {
+            BOUND_PUSH
+        };
+        self.sys.bounds.push_inside(&mut w, push);
+        let b = &self.sys.bounds;
+        let mu0 = self.barrier.mu;
+        // Cold: z = 1 (§3.6). Warm: the given z, at least μ_0/s.
+        let start_z = |j: usize, has: bool, slack: f64, given: Option<&Vec<f64>>| {
+            if !has {
+                return 0.0;
+            }
+            match given {
+                Some(z) if z.len() == nv => z[j].max(mu0 / slack),
+                _ => 1.0,
+            }
+        };
+        let zl = (0..nv)
+            .map(|j| start_z(j, b.has_lo[j], w[j] - b.lo[j], warm.map(|d| &d.zl)))
+            .collect();
+        let zu = (0..nv)
+            .map(|j| start_z(j, b.has_hi[j], b.hi[j] - w[j], warm.map(|d| &d.zu)))
+            .collect();
+        let mut it = Iterate {
+            w,
+            lambda: vec![0.0; nc],
+            zl,
+            zu,
+        };
+        self.sys.evaluate(&it.w, &it.lambda);
+        match lambda0 {
+            Some(l) if l.len() == nc => it.lambda.copy_from_slice(l),
+            _ => self.sys.initial_multipliers(&mut it),
+        }
+        let theta0 = l1_norm(&self.sys.ws.c);
+        self.search.start(theta0);
+        it
+    }
+
+    /// One iteration from `it`: its derivatives and optimality error (the
+    /// end of the solve when E_0 ≤ ε_tol), the barrier update, the Newton
+    /// step and the step along it.
+    fn iteration(&mut self, it: &mut Iterate) -> ControlFlow<Outcome, Progress> {
+        let tol = self.settings.tolerance;
+        self.sys.evaluate(&it.w, &it.lambda);
+        self.sys.lagrangian_gradient(&it.w, &it.lambda);
+        self.sys.ws.w_old.copy_from_slice(&it.w);
+        let (e0, primal, dual) = self.sys.optimality_error(it, 0.0);
+        if !(e0.is_finite()) {
+            return ControlFlow::Break((
+                Status::SolverFailed,
+                "the iterate is no longer finite".to_string(),
+            ));
+        }
+        if e0 <= tol {
+            return ControlFlow::Break((Status::Solved, String::new()));
+        }
+        if self.barrier.update(&self.sys, it, e0) {
+            self.search.reset();
+        }
+        if let Err(msg) = self.newton_step(it) {
+            return ControlFlow::Break((Status::SolverFailed, msg));
+        }
+        match self.step(it) {
+            Ok((step, trials, restoration)) => ControlFlow::Continue(Progress {
+                primal,
+                dual,
+                step,
+                trials,
+                restoration,
+            }),
+            Err(msg) => ControlFlow::Break((Status::Infeasible, msg)),
+        }
+    }
+
+    /// The Newton step (Eq. 11–13) into ws.dw, ws.dl: the KKT system at the
+    /// iterate, factored with inertia correction, and (in the adaptive mode)
+    /// μ from the probe on its factors.
+    fn newton_step(&mut self, it: &Iterate) -> Result<(), String> {
+        self.sys.build_kkt(it);
+        self.inertia.factor(&mut self.sys, self.barrier.mu)?;
+        if self.barrier.probe(&mut self.sys, it) {
+            self.search.reset();
+        }
+        self.sys.newton_rhs(it, self.barrier.mu);
+        self.sys.solve_kkt();
+        Ok(())
+    }
+
+    /// The step along the Newton direction: the filter line search, or on
+    /// its failure the fallback to the monotone mode (adaptive) or the
+    /// restoration. Its length, trials and whether it restored; an error
+    /// when the restoration fails.
+    fn step(&mut self, it: &mut Iterate) -> Result<(f64, usize, bool), String> {
+        let barrier = (self.barrier.mu, self.barrier.tau);
+        match self.search.search(&mut self.sys, it, barrier) {
+            LineSearch::Accepted { alpha, trials, .. } => Ok((alpha, trials, false)),
+            LineSearch::Failed if self.barrier.is_adaptive() => {
+                // No restoration in the adaptive mode: fall back and retry.
+                self.barrier.leave_adaptive_mode(&self.sys, it);
+                self.search.reset();
+                Ok((0.0, 0, false))
+            }
+            LineSearch::Failed => {
+                let (sys, inertia, search) = (&mut self.sys, &mut self.inertia, &mut self.search);
+                Restoration::run(sys, inertia, search, it, barrier)?;
+                Ok((0.0, 0, true))
+            }
+        }
+    }
+
+    /// The answer: the last iterate, its defect and how the solve ended.
+    fn finish(
+        mut self,
+        it: Iterate,
+        outcome: Option<Outcome>,
+        history: Vec<DirectIteration>,
+    ) -> NlpResult {
+        let (status, message) = outcome.unwrap_or((
+            Status::NotConverged,
+            format!(
+                "no convergence in {} interior-point iterations; the last iterate is returned",
+                self.settings.max_iterations
+            ),
+        ));
+        self.nlp.defects(&it.w, &mut self.sys.ws.c);
+        NlpResult {
+            max_defect: inf_norm(&self.sys.ws.c),
+            w: it.w,
+            lambda: it.lambda,
+            zl: it.zl,
+            zu: it.zu,
+            status,
+            message,
+            history,
+        }
+    }
+}
