@@ -196,7 +196,7 @@ mod tests {
         bellyflop::solve(
             &s,
             &Default::default(),
-            &mut |_: &bellyflop::solution::IterationRecord| {},
+            &mut bellyflop::method::observer::Silent,
         )
     }
 

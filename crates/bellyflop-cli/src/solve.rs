@@ -2,8 +2,8 @@
 
 use std::process::ExitCode;
 
-use bellyflop::method::direct::DirectIteration;
-use bellyflop::solution::IterationRecord;
+use bellyflop::method::observer::Iteration;
+use bellyflop::solution::{DirectIteration, IterationRecord};
 use bellyflop::{Case, Method, Scenario, Solution, SolverSettings};
 
 use crate::args::SolveArgs;
@@ -92,23 +92,10 @@ struct Progress {
 }
 
 impl bellyflop::Observer for Progress {
-    fn on_iteration(&mut self, r: &IterationRecord) {
-        if !self.quiet {
-            eprintln!(
-                "iter {:>3}  J {:>+12.6e}  m_f {:>10.1} kg  step {:>9.2e}  vc {:>9.2e}  radius {:>8.2e}  rho {:>+7.3}  {}{}  ipm {:>2}  {:>7.2} ms",
-                r.iteration,
-                r.cost,
-                r.final_mass_kg,
-                r.step,
-                r.virtual_control,
-                r.trust_radius,
-                r.rho,
-                if r.accepted { "acc" } else { "rej" },
-                // The candidate was judged after its second-order correction.
-                if r.corrected { "+soc" } else { "    " },
-                r.ipm_iterations,
-                r.ms
-            );
+    fn iteration(&mut self, record: Iteration<'_>) {
+        match record {
+            Iteration::Scvx(r) => self.scvx(r),
+            Iteration::Direct(r) => self.direct(r),
         }
     }
 
@@ -136,8 +123,30 @@ impl bellyflop::Observer for Progress {
             );
         }
     }
+}
 
-    fn on_direct_iteration(&mut self, r: &DirectIteration) {
+impl Progress {
+    fn scvx(&mut self, r: &IterationRecord) {
+        if !self.quiet {
+            eprintln!(
+                "iter {:>3}  J {:>+12.6e}  m_f {:>10.1} kg  step {:>9.2e}  vc {:>9.2e}  radius {:>8.2e}  rho {:>+7.3}  {}{}  ipm {:>2}  {:>7.2} ms",
+                r.iteration,
+                r.cost,
+                r.final_mass_kg,
+                r.step,
+                r.virtual_control,
+                r.trust_radius,
+                r.rho,
+                if r.accepted { "acc" } else { "rej" },
+                // The candidate was judged after its second-order correction.
+                if r.corrected { "+soc" } else { "    " },
+                r.ipm_iterations,
+                r.ms
+            );
+        }
+    }
+
+    fn direct(&mut self, r: &DirectIteration) {
         if !self.quiet {
             eprintln!(
                 "iter {:>3}  m_f {:>10.2} kg  inf_pr {:>9.2e}  inf_du {:>9.2e}  mu {:>8.1e}  alpha {:>8.2e}  reg {:>8.1e}  ls {:>2}{}  {:>6.3} ms",
@@ -229,7 +238,7 @@ fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, t
         Method::Scvx => println!(
             "iterations    {} SCvx, {} interior-point in all",
             s.iterations,
-            s.history.iter().map(|h| h.ipm_iterations).sum::<u32>()
+            s.history.scvx.iter().map(|h| h.ipm_iterations).sum::<u32>()
         ),
         Method::Direct => println!(
             "iterations    {} interior-point (direct method)",

@@ -12,7 +12,7 @@
 
 use std::time::Instant;
 
-use bellyflop::guidance::planner::{Plan, Planner};
+use bellyflop::guidance::planner::Planner;
 use bellyflop::method::scvx::Silent;
 use bellyflop::{Case, Status};
 
@@ -43,7 +43,7 @@ fn main() {
                 let mut planner = Planner::new(s.scenario.clone(), s.solver.clone());
                 // The SCvx warm re-plan (the scenario's default method is direct).
                 planner.method = bellyflop::Method::Scvx;
-                planner.plan = Some(Plan::from_solution(&sol));
+                planner.plan = Some(sol.plan());
                 sol = planner
                     .replan(&s.scenario.initial, 0.0, &mut Silent)
                     .expect("valid");

@@ -93,7 +93,8 @@ fn main() {
         its.push(sol.iterations as f64);
         ipopt_its.push(r.ipopt_its as f64);
         let coarse = sol
-            .direct_history
+            .history
+            .direct
             .iter()
             .filter(|h| h.mesh_nodes != n)
             .count();

@@ -69,7 +69,7 @@ fn main() {
             warm.status.as_str(),
             warm.final_mass_kg - cold.final_mass_kg,
         );
-        for h in &warm.history {
+        for h in &warm.history.scvx {
             println!(
                 "       warm iter {}: J {:.9e} m_f {:.4} step {:.2e} defect {:.2e} vc {:.2e} rho {:+.3} ipm {}",
                 h.iteration, h.cost, h.final_mass_kg, h.step, h.defect, h.virtual_control, h.rho, h.ipm_iterations

@@ -3,10 +3,11 @@
 use serde::Serialize;
 
 use crate::collocation::mesh::Mesh;
+use crate::collocation::plan::Plan;
+use crate::collocation::trajectory::Trajectory;
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::{Formulation, Method};
-use crate::method::scvx::transcription::{Trajectory, Transcription};
-use crate::problem::dynamics::{self, ix};
+use crate::problem::dynamics::{self, ix, Model};
 
 /// How a solve ended. Each variant has its own exit code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -112,6 +113,59 @@ pub struct DirectIteration {
     pub ms: f64,
 }
 
+/// The iterations of a solve, in order: SCvx's or the direct method's (a
+/// solve runs one method; each list is empty for the other).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct History {
+    /// SCvx iterations (JSON `history`, always present).
+    #[serde(rename = "history")]
+    pub scvx: Vec<IterationRecord>,
+    /// Interior-point iterations (JSON `direct_history`, when there are any).
+    #[serde(rename = "direct_history", skip_serializing_if = "Vec::is_empty")]
+    pub direct: Vec<DirectIteration>,
+}
+
+impl History {
+    /// The iterations of one direct solve.
+    pub fn direct(direct: Vec<DirectIteration>) -> Self {
+        History {
+            scvx: Vec::new(),
+            direct,
+        }
+    }
+
+    /// The iterations of one SCvx solve.
+    pub fn scvx(scvx: Vec<IterationRecord>) -> Self {
+        History {
+            scvx,
+            direct: Vec::new(),
+        }
+    }
+
+    /// Number of iterations.
+    pub fn len(&self) -> usize {
+        self.scvx.len() + self.direct.len()
+    }
+
+    /// No iterations.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// `later`'s iterations after these, every record numbered 1, 2, … in
+    /// order (each phase of a solve numbers its own from 1).
+    pub fn append(&mut self, later: History) {
+        self.scvx.extend(later.scvx);
+        self.direct.extend(later.direct);
+        for (k, h) in self.scvx.iter_mut().enumerate() {
+            h.iteration = k + 1;
+        }
+        for (k, h) in self.direct.iter_mut().enumerate() {
+            h.iteration = k + 1;
+        }
+    }
+}
+
 /// How far a returned path may dip below the landing altitude at a node and
 /// still be `solved` \[m\]: 1 mm, a thousandth of the paper's re-integrated
 /// landing error (0.8 m). The ground bound z ≥ z_f holds only to the
@@ -200,11 +254,9 @@ pub struct Solution {
     pub checks: Checks,
     /// The method that produced the answer.
     pub method: Method,
-    /// SCvx iterations (empty for the direct method).
-    pub history: Vec<IterationRecord>,
-    /// Interior-point iterations of the direct method (empty for SCvx).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub direct_history: Vec<DirectIteration>,
+    /// Every iteration, in order (JSON `history` and `direct_history`).
+    #[serde(flatten)]
+    pub history: History,
     /// The passes of hp mesh refinement, when it ran ([`crate::refine`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refinement: Option<Refinement>,
@@ -218,10 +270,10 @@ pub struct Solution {
 /// last point's σ times the final mass, kept within [T_min, T_max]. (σ held
 /// alone would leave the engine's range: the mass falls after the last
 /// point, so a σ at T_min/m gave 2,209,399 N against T_min = 2,210,000 N.)
-pub fn node_thrust_n(tr: &Transcription, t: &Trajectory) -> Vec<f64> {
-    let n = tr.layout.n;
-    let si = tr.sigma_index();
-    let (lo, hi) = (tr.model.min_thrust_n, tr.model.max_thrust_n);
+pub fn node_thrust_n(model: &Model, form: Formulation, t: &Trajectory) -> Vec<f64> {
+    let n = t.u.len();
+    let si = dynamics::sigma_index(form);
+    let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
     (0..=n)
         .map(|k| {
             let thrust = t.u[k.min(n - 1)][si] * t.x[k][ix::OMEGA].exp();
@@ -234,81 +286,50 @@ pub fn node_thrust_n(tr: &Transcription, t: &Trajectory) -> Vec<f64> {
         .collect()
 }
 
-/// Evaluate the physical checks of a trajectory.
-pub fn check(tr: &Transcription, t: &Trajectory, virtual_control: f64) -> Checks {
-    let mut gap = 0.0f64;
-    let mut align = 1.0f64;
-    let mut bound = 0.0f64;
-    for i in 0..tr.layout.n {
-        let x = &t.x[i];
-        let (txm, tzm, sigma) = dynamics::thrust_components(tr.form, x, &t.u[i][..tr.layout.nu]);
-        let norm = txm.hypot(tzm);
-        if sigma > 0.0 {
-            gap = gap.max(1.0 - norm / sigma);
-        }
-        let phi = x[ix::THETA] + x[ix::DELTA];
-        if norm > 0.0 {
-            align = align.min((txm * phi.sin() + tzm * phi.cos()) / norm);
-        }
-    }
-    // Every reported thrust, the final node's included.
-    for thrust in node_thrust_n(tr, t) {
-        bound = bound
-            .max(tr.model.min_thrust_n - thrust)
-            .max(thrust - tr.model.max_thrust_n);
-    }
-    let max_defect = tr
-        .defects(t)
-        .iter()
-        .flatten()
-        .fold(0.0f64, |m, v| m.max(v.abs()));
-    let min_altitude_margin_m =
-        t.x.iter()
-            .map(|x| x[ix::Z] - tr.xf[ix::Z])
-            .fold(f64::INFINITY, f64::min);
-    Checks {
-        min_altitude_margin_m,
-        relaxation_gap: gap,
-        thrust_alignment_min: align,
-        thrust_bound_violation_n: bound,
-        max_defect,
-        virtual_control,
-    }
+/// How a method's solve ended: its name, status and reason, the checks of
+/// its trajectory, its iterations and its time.
+#[derive(Debug, Clone)]
+pub struct SolveOutcome {
+    pub method: Method,
+    pub status: Status,
+    /// Why the status is not `solved`, or empty.
+    pub message: String,
+    pub checks: Checks,
+    pub history: History,
+    pub solve_time_ms: f64,
 }
 
 impl Solution {
-    /// Assemble the physical-unit arrays of a trajectory.
-    #[allow(clippy::too_many_arguments)]
+    /// The answer of a solve: `t` on `mesh` in the formulation `form`, its
+    /// node arrays in physical units, and how the method ended.
     pub fn new(
-        tr: &Transcription,
+        mesh: &Mesh,
+        model: &Model,
+        form: Formulation,
         t: Trajectory,
-        status: Status,
-        message: String,
-        checks: Checks,
-        history: Vec<IterationRecord>,
-        solve_time_ms: f64,
+        outcome: SolveOutcome,
     ) -> Self {
-        let n = tr.layout.n;
+        let n = mesh.n;
         let col = |c: usize| t.x.iter().map(|x| x[c]).collect::<Vec<f64>>();
-        let chi = tr.layout.nu - 1;
+        let chi = dynamics::control_dim(form) - 1;
         let ctrl = |i: usize| &t.u[i.min(n - 1)];
         let mass_kg: Vec<f64> = t.x.iter().map(|x| x[ix::OMEGA].exp()).collect();
-        let thrust_n = node_thrust_n(tr, &t);
+        let thrust_n = node_thrust_n(model, form, &t);
         let gimbal_rate_radps = (0..=n).map(|k| ctrl(k)[chi]).collect();
         let final_mass_kg = mass_kg[n];
         Solution {
-            status,
-            message,
-            formulation: tr.form,
+            status: outcome.status,
+            message: outcome.message,
+            formulation: form,
             nodes: n,
-            intervals: tr.mesh.intervals.len(),
-            mesh: tr.mesh.layout(),
+            intervals: mesh.intervals.len(),
+            mesh: mesh.layout(),
             tf_s: t.tf_s,
             final_mass_kg,
             fuel_kg: mass_kg[0] - final_mass_kg,
-            iterations: history.len(),
-            solve_time_ms,
-            t_s: (0..=n).map(|k| tr.mesh.time_s(k, t.tf_s)).collect(),
+            iterations: outcome.history.len(),
+            solve_time_ms: outcome.solve_time_ms,
+            t_s: (0..=n).map(|k| mesh.time_s(k, t.tf_s)).collect(),
             x_m: col(ix::X),
             z_m: col(ix::Z),
             vx_mps: col(ix::VX),
@@ -319,13 +340,31 @@ impl Solution {
             delta_rad: col(ix::DELTA),
             thrust_n,
             gimbal_rate_radps,
-            checks,
-            method: Method::Scvx,
-            history,
-            direct_history: Vec::new(),
+            checks: outcome.checks,
+            method: outcome.method,
+            history: outcome.history,
             refinement: None,
             trajectory: t,
         }
+    }
+
+    /// This answer as a plan to fly: its trajectory, mesh and formulation,
+    /// and σ = T/m and δ through its nodes.
+    pub fn plan(&self) -> Plan {
+        let sigma: Vec<f64> = self
+            .thrust_n
+            .iter()
+            .zip(&self.mass_kg)
+            .map(|(t, m)| t / m)
+            .collect();
+        Plan::new(
+            self.trajectory.clone(),
+            self.mesh(),
+            self.formulation,
+            &self.t_s,
+            &sigma,
+            &self.delta_rad,
+        )
     }
 
     /// A name for the formulation that produced this answer, given the one

@@ -52,8 +52,8 @@ fn assert_reference(sol: &Solution, mass_kg: f64, tf_s: f64, what: &str) {
     );
     assert!(sol.checks.min_altitude_margin_m >= -1e-9, "{what}");
     assert!(sol.checks.thrust_bound_violation_n <= 1e-6, "{what}");
-    assert_eq!(sol.iterations, sol.direct_history.len());
-    assert!(sol.history.is_empty(), "no SCvx history");
+    assert_eq!(sol.iterations, sol.history.direct.len());
+    assert!(sol.history.scvx.is_empty(), "no SCvx history");
 }
 
 #[test]
@@ -172,7 +172,8 @@ fn iteration_limit_is_not_converged_with_the_last_iterate() {
     let full = direct_paper(|_| ());
     assert_eq!(full.status, Status::Solved);
     let coarse = full
-        .direct_history
+        .history
+        .direct
         .iter()
         .filter(|h| h.mesh_nodes == 10)
         .count();
@@ -181,7 +182,7 @@ fn iteration_limit_is_not_converged_with_the_last_iterate() {
     let sol = direct_paper(|s| s.solver.direct.max_iterations = limit);
     assert_eq!(sol.status, Status::NotConverged, "{}", sol.message);
     assert_eq!(sol.iterations, limit);
-    assert!(sol.direct_history.iter().any(|h| h.mesh_nodes == 20));
+    assert!(sol.history.direct.iter().any(|h| h.mesh_nodes == 20));
 }
 
 /// The coarse start and the straight line reach the same optimum.
@@ -190,14 +191,14 @@ fn coarse_start_and_straight_line_agree() {
     let a = direct_paper(|s| s.solver.direct.coarse_nodes = 0);
     let b = direct_paper(|s| s.solver.direct.coarse_nodes = 10);
     assert!((a.final_mass_kg - b.final_mass_kg).abs() < 0.01);
-    assert!(b.direct_history.iter().any(|h| h.mesh_nodes == 10));
-    assert!(a.direct_history.iter().all(|h| h.mesh_nodes == 20));
+    assert!(b.history.direct.iter().any(|h| h.mesh_nodes == 10));
+    assert!(a.history.direct.iter().all(|h| h.mesh_nodes == 20));
 }
 
 #[test]
 fn history_records_the_interior_point_iterations() {
     let sol = direct_paper(|_| ());
-    let h = &sol.direct_history;
+    let h = &sol.history.direct;
     assert!(h.len() >= 5);
     // μ never rises within a mesh; the coarse start (N = 10) comes first.
     assert!(h

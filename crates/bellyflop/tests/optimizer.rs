@@ -32,6 +32,7 @@ fn assert_feasible(sol: &Solution, what: &str) {
         sol.checks.max_defect,
         sol.checks.virtual_control,
         sol.history
+            .scvx
             .iter()
             .rev()
             .take(3)
@@ -225,7 +226,7 @@ fn iteration_limit_returns_not_converged_with_best_iterate() {
     assert_eq!(sol.status, Status::NotConverged);
     assert_eq!(sol.status.exit_code(), 4);
     assert!(sol.message.contains("3 iterations"), "{}", sol.message);
-    assert_eq!(sol.history.len(), 3);
+    assert_eq!(sol.history.scvx.len(), 3);
     assert_eq!(sol.t_s.len(), 21);
     assert!(sol.mass_kg.iter().all(|m| m.is_finite()));
 }
@@ -422,11 +423,11 @@ fn warm_replan_counts_both_phases() {
         .replan(&state, 0.5, &mut Silent)
         .expect("valid state");
     assert_eq!(warm.status, Status::Solved, "{}", warm.message);
-    assert_eq!(warm.iterations, warm.history.len());
+    assert_eq!(warm.iterations, warm.history.scvx.len());
     assert!(warm.iterations >= 2);
-    let numbered: Vec<usize> = warm.history.iter().map(|h| h.iteration).collect();
+    let numbered: Vec<usize> = warm.history.scvx.iter().map(|h| h.iteration).collect();
     assert_eq!(numbered, (1..=warm.iterations).collect::<Vec<_>>());
-    let ms: f64 = warm.history.iter().map(|h| h.ms).sum();
+    let ms: f64 = warm.history.scvx.iter().map(|h| h.ms).sum();
     assert!(warm.solve_time_ms >= ms, "{} < {ms}", warm.solve_time_ms);
 }
 

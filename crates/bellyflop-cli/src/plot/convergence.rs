@@ -61,7 +61,7 @@ pub(super) fn draw_convergence<DB: DrawingBackend>(
 /// Virtual control, step, cost and trust radius per SCvx iteration.
 fn scvx_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
     let sv = d.settings;
-    let h = &d.solution.history;
+    let h = &d.solution.history.scvx;
     let values = |f: fn(&bellyflop::solution::IterationRecord) -> f64| h.iter().map(f).collect();
     let iterations = Iterations {
         x: h.iter().map(|r| r.iteration as f64).collect(),
@@ -102,7 +102,7 @@ fn scvx_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
 /// iteration.
 fn direct_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
     let tol = d.settings.direct.tolerance;
-    let h = &d.solution.direct_history;
+    let h = &d.solution.history.direct;
     let values =
         |f: fn(&bellyflop::method::direct::DirectIteration) -> f64| h.iter().map(f).collect();
     let iterations = Iterations {

@@ -6,7 +6,6 @@ use crate::collocation::mesh::Mesh;
 use crate::collocation::trajectory::Trajectory;
 use crate::input::settings::Formulation;
 use crate::problem::dynamics::{self, ix, NU_MAX, NX};
-use crate::solution::Solution;
 
 /// The previous plan as a function of time: its trajectory, mesh and formulation.
 #[derive(Debug, Clone)]
@@ -23,19 +22,22 @@ pub struct Plan {
 }
 
 impl Plan {
-    pub fn from_solution(s: &Solution) -> Plan {
-        let sigma: Vec<f64> = s
-            .thrust_n
-            .iter()
-            .zip(&s.mass_kg)
-            .map(|(t, m)| t / m)
-            .collect();
+    /// The plan of `trajectory` on `mesh` in the formulation `form`, flown
+    /// with σ = T/m and δ given at the node times `t_s` (PCHIP between).
+    pub fn new(
+        trajectory: Trajectory,
+        mesh: Mesh,
+        form: Formulation,
+        t_s: &[f64],
+        sigma: &[f64],
+        delta_rad: &[f64],
+    ) -> Plan {
         Plan {
-            trajectory: s.trajectory.clone(),
-            mesh: s.mesh(),
-            form: s.formulation,
-            sigma_pchip: Interpolant::new(Interpolation::Pchip, &s.t_s, &sigma),
-            delta_pchip: Interpolant::new(Interpolation::Pchip, &s.t_s, &s.delta_rad),
+            trajectory,
+            mesh,
+            form,
+            sigma_pchip: Interpolant::new(Interpolation::Pchip, t_s, sigma),
+            delta_pchip: Interpolant::new(Interpolation::Pchip, t_s, delta_rad),
         }
     }
 

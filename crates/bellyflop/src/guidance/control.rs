@@ -4,8 +4,8 @@
 //! touchdown on the measured state alone. Both are pure functions of their
 //! inputs.
 
+use crate::collocation::plan::Plan;
 use crate::guidance::config::GuidanceConfig;
-use crate::guidance::planner::Plan;
 use crate::input::scenario::TerminalState;
 use crate::problem::dynamics::{ix, Model};
 use crate::sim::{Command, PlantState};

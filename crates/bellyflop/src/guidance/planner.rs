@@ -14,7 +14,7 @@
 //! vertices on the singular arcs and the trust region binds for 15–20
 //! iterations ([`WARM_PROXIMAL_WEIGHT`]).
 
-pub use crate::collocation::plan::{shifted_reference, Plan};
+use crate::collocation::plan::Plan;
 use crate::input::error::InputError;
 use crate::input::scenario::{InitialState, Method, Scenario, SolverSettings};
 use crate::method::observer::Observer;
@@ -94,7 +94,7 @@ impl Planner {
     /// Make `sol` the plan if it is solved; the old plan stays otherwise.
     fn adopt(&mut self, sol: Solution) -> Solution {
         if sol.status == crate::Status::Solved {
-            self.plan = Some(Plan::from_solution(&sol));
+            self.plan = Some(sol.plan());
         }
         sol
     }

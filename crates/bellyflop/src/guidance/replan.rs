@@ -8,9 +8,10 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::collocation::plan::Plan;
 use crate::guidance::config::GuidanceConfig;
 use crate::guidance::navigation::WindEstimator;
-use crate::guidance::planner::{Plan, Planner};
+use crate::guidance::planner::Planner;
 use crate::input::error::InputError;
 use crate::input::scenario::{InitialState, Scenario};
 use crate::method::observer::Silent;
@@ -203,7 +204,7 @@ fn adopt(
         // The planner keeps only solved plans; a usable iterate is
         // adopted here, and warm-starts the next re-plan.
         (Ok(sol), ReplanOutcome::Usable) => {
-            flown.plan = Plan::from_solution(sol);
+            flown.plan = sol.plan();
             planner.plan = Some(flown.plan.clone());
             flown.start_s = t_s;
             flown.warm_start_s = t_s;
@@ -211,7 +212,7 @@ fn adopt(
         // A missed re-plan is not flown, but its iterate is nearer the new
         // optimum than the flown plan: the next re-plan continues from it.
         (Ok(sol), ReplanOutcome::Missed) if continue_missed && sol.trajectory.is_finite() => {
-            planner.plan = Some(Plan::from_solution(sol));
+            planner.plan = Some(sol.plan());
             flown.warm_start_s = t_s;
         }
         _ => planner.plan = previous,

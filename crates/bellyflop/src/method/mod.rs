@@ -86,16 +86,13 @@ pub fn guess_answer(
     let tr = scvx::transcription::Transcription::new(scenario, settings);
     let d = &scenario.discretization;
     let guess = scvx::straight_line(&tr, d.tf_guess_s, d.final_mass_guess_kg);
-    let checks = crate::solution::check(&tr, &guess, 0.0);
-    let mut sol = Solution::new(
-        &tr,
-        guess,
+    let outcome = crate::solution::SolveOutcome {
+        method: settings.method,
         status,
         message,
-        checks,
-        Vec::new(),
+        checks: tr.checks(&guess, 0.0),
+        history: crate::solution::History::default(),
         solve_time_ms,
-    );
-    sol.method = settings.method;
-    sol
+    };
+    Solution::new(&tr.mesh, &tr.model, tr.form, guess, outcome)
 }

@@ -1,14 +1,21 @@
-//! What a solver reports as it iterates: one trait that both methods call
-//! (progress bars, logs, plots).
+//! What a solver reports as it iterates: one callback over a typed
+//! iteration record, whichever method runs (progress bars, logs, plots).
 
 use crate::solution::{DirectIteration, IterationRecord, Pass};
 
+/// One completed iteration of a method.
+#[derive(Debug, Clone, Copy)]
+pub enum Iteration<'a> {
+    /// An SCvx iteration (a convex subproblem solved and judged).
+    Scvx(&'a IterationRecord),
+    /// An interior-point iteration of the direct method.
+    Direct(&'a DirectIteration),
+}
+
 /// Receives each iteration as it completes (progress bars, logs, plots).
 pub trait Observer {
-    /// An SCvx iteration.
-    fn on_iteration(&mut self, record: &IterationRecord);
-    /// An iteration of the direct method (ignored unless overridden).
-    fn on_direct_iteration(&mut self, _record: &DirectIteration) {}
+    /// An iteration of whichever method runs.
+    fn iteration(&mut self, record: Iteration<'_>);
     /// A pass of mesh refinement, solved and estimated (ignored unless
     /// overridden).
     fn pass(&mut self, _pass: &Pass) {}
@@ -18,11 +25,11 @@ pub trait Observer {
 pub struct Silent;
 
 impl Observer for Silent {
-    fn on_iteration(&mut self, _: &IterationRecord) {}
+    fn iteration(&mut self, _: Iteration<'_>) {}
 }
 
-impl<F: FnMut(&IterationRecord)> Observer for F {
-    fn on_iteration(&mut self, record: &IterationRecord) {
+impl<F: FnMut(Iteration<'_>)> Observer for F {
+    fn iteration(&mut self, record: Iteration<'_>) {
         self(record)
     }
 }

@@ -98,6 +98,14 @@ pub fn control_dim(form: Formulation) -> usize {
     }
 }
 
+/// Index of σ = T/m in a control vector of the formulation `form`.
+pub fn sigma_index(form: Formulation) -> usize {
+    match form {
+        Formulation::Paper | Formulation::Vector => 2,
+        Formulation::Exact => 0,
+    }
+}
+
 /// Eq. (1)–(3): ẋ for state (x, z, Vx, Vz, θ, w, m) and control (T \[N\], δ \[rad\]).
 pub fn rhs_physical<D: DualNum<Primitive = f64> + Copy>(
     model: &Model,

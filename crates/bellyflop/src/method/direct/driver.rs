@@ -16,7 +16,7 @@ use crate::method::direct::newton::Newton;
 use crate::method::direct::nlp::Nlp;
 use crate::method::direct::restoration::Restoration;
 use crate::method::direct::{NlpResult, Start, BOUND_PUSH, WARM_BOUND_PUSH};
-use crate::method::observer::Observer;
+use crate::method::observer::{Iteration, Observer};
 use crate::solution::{DirectIteration, Status};
 
 /// How a solve ended, when it ended before its iteration limit.
@@ -87,7 +87,7 @@ impl<'a> Driver<'a> {
                 restoration: p.restoration,
                 ms: t0.elapsed().as_secs_f64() * 1e3,
             };
-            observer.on_direct_iteration(&record);
+            observer.iteration(Iteration::Direct(&record));
             history.push(record);
         }
         self.finish(it, outcome, history)

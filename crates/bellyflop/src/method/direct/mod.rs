@@ -41,6 +41,7 @@ pub mod solver;
 
 use std::time::Instant;
 
+use crate::input::settings::Method;
 use crate::input::settings::SolverSettings;
 pub use crate::input::settings::{DirectSettings, MuStrategy};
 use crate::method::direct::driver::Driver;
@@ -51,6 +52,7 @@ use crate::method::direct::nlp::{Nlp, PointDerivatives, NL, NS};
 use crate::method::observer::Observer;
 pub use crate::solution::DirectIteration;
 use crate::solution::Status;
+use crate::solution::{History, SolveOutcome};
 
 /// μ_0 of the fine solve after a coarse start, and of warm starts.
 pub const WARM_MU: f64 = 1e-4;
@@ -195,13 +197,12 @@ pub fn solve_keeping_duals(
     let w0 = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
     let coarse_n = settings.direct.coarse_nodes;
     if coarse_n < 4 || 2 * coarse_n > d.nodes {
-        let (sol, duals) =
-            solve_from_start(scenario, settings, &nlp, Start::Primal(&w0, None), observer);
+        let (sol, duals) = solve_from_start(settings, &nlp, Start::Primal(&w0, None), observer);
         return (sol, nlp, duals);
     }
     // Every phase's iterations and time are counted in the answer.
     let start = Instant::now();
-    let mut spent = Vec::new();
+    let mut spent = History::default();
     let mut coarse = scenario.clone();
     coarse.discretization.nodes = coarse_n;
     coarse.discretization.intervals = 1;
@@ -213,7 +214,7 @@ pub fn solve_keeping_duals(
         ..settings.direct.clone()
     };
     let mut first = solve_nlp(&cnlp, &cw0, None, &coarse_settings, observer);
-    spent.append(&mut first.history);
+    spent.append(History::direct(std::mem::take(&mut first.history)));
     let max_iterations = settings.direct.max_iterations;
     let mut budget = settings.clone();
     budget.direct.max_iterations = max_iterations.saturating_sub(spent.len());
@@ -221,9 +222,8 @@ pub fn solve_keeping_duals(
     if budget.direct.max_iterations > 0 && first.status == Status::Solved {
         let mut fine = budget.clone();
         fine.direct.mu_init = WARM_MU;
-        let (mut sol, duals) =
-            solve_from_start(scenario, &fine, &nlp, Start::Primal(&warm, None), observer);
-        spent.append(&mut sol.direct_history);
+        let (mut sol, duals) = solve_from_start(&fine, &nlp, Start::Primal(&warm, None), observer);
+        spent.append(std::mem::take(&mut sol.history));
         if sol.status == Status::Solved {
             return (with_phases(sol, spent, start), nlp, duals);
         }
@@ -232,38 +232,24 @@ pub fn solve_keeping_duals(
     if budget.direct.max_iterations == 0 {
         // The limit was spent on the coarse phase: its last iterate, carried
         // onto the scenario's mesh, not iterated there.
-        let (mut sol, duals) = solve_from_start(
-            scenario,
-            &budget,
-            &nlp,
-            Start::Primal(&warm, None),
-            observer,
-        );
+        let (mut sol, duals) =
+            solve_from_start(&budget, &nlp, Start::Primal(&warm, None), observer);
         sol.status = Status::NotConverged;
         sol.message = format!(
             "no convergence in {max_iterations} interior-point iterations (coarse start included); the last iterate is returned"
         );
         return (with_phases(sol, spent, start), nlp, duals);
     }
-    let (mut sol, duals) =
-        solve_from_start(scenario, &budget, &nlp, Start::Primal(&w0, None), observer);
-    let mut own = std::mem::take(&mut sol.direct_history);
-    spent.append(&mut own);
+    let (mut sol, duals) = solve_from_start(&budget, &nlp, Start::Primal(&w0, None), observer);
+    spent.append(std::mem::take(&mut sol.history));
     (with_phases(sol, spent, start), nlp, duals)
 }
 
 /// A solution with the iterations of every phase, renumbered in order, and
 /// the time since `start`.
-fn with_phases(
-    mut sol: crate::Solution,
-    mut history: Vec<DirectIteration>,
-    start: Instant,
-) -> crate::Solution {
-    for (k, h) in history.iter_mut().enumerate() {
-        h.iteration = k + 1;
-    }
+fn with_phases(mut sol: crate::Solution, history: History, start: Instant) -> crate::Solution {
     sol.iterations = history.len();
-    sol.direct_history = history;
+    sol.history = history;
     sol.solve_time_ms = start.elapsed().as_secs_f64() * 1e3;
     sol
 }
@@ -297,21 +283,13 @@ pub fn interpolate(from: &Nlp, w: &[f64], to: &Nlp) -> Vec<f64> {
 /// Solve from a given scaled point (and optionally multipliers, for warm
 /// starts), and report the answer as a [`crate::Solution`].
 pub fn solve_from(
-    scenario: &crate::Scenario,
     settings: &SolverSettings,
     nlp: &Nlp,
     w0: &[f64],
     lambda0: Option<&[f64]>,
     observer: &mut dyn Observer,
 ) -> crate::Solution {
-    solve_from_start(
-        scenario,
-        settings,
-        nlp,
-        Start::Primal(w0, lambda0),
-        observer,
-    )
-    .0
+    solve_from_start(settings, nlp, Start::Primal(w0, lambda0), observer).0
 }
 
 /// Where a solve starts: a primal point, with the defect multipliers or
@@ -325,7 +303,6 @@ pub enum Start<'a> {
 /// Solve from `start`, and report the answer as a [`crate::Solution`] with
 /// the multipliers of its last iterate.
 pub fn solve_from_start(
-    scenario: &crate::Scenario,
     settings: &SolverSettings,
     nlp: &Nlp,
     start_point: Start,
@@ -334,11 +311,6 @@ pub fn solve_from_start(
     let start = Instant::now();
     let r = Driver::new(nlp, &settings.direct).run(start_point, observer);
     let ms = start.elapsed().as_secs_f64() * 1e3;
-    let exact = SolverSettings {
-        formulation: crate::Formulation::Exact,
-        ..settings.clone()
-    };
-    let tr = crate::method::scvx::transcription::Transcription::new(scenario, &exact);
     let checks = checks(nlp, &r.w);
     let (mut status, mut message) = (r.status, r.message);
     if status == Status::Solved
@@ -350,18 +322,21 @@ pub fn solve_from_start(
             -checks.min_altitude_margin_m
         );
     }
-    let mut sol = crate::Solution::new(
-        &tr,
-        nlp.to_trajectory(&r.w),
+    let outcome = SolveOutcome {
+        method: Method::Direct,
         status,
         message,
         checks,
-        Vec::new(),
-        ms,
+        history: History::direct(r.history),
+        solve_time_ms: ms,
+    };
+    let sol = crate::Solution::new(
+        &nlp.mesh,
+        &nlp.model,
+        crate::Formulation::Exact,
+        nlp.to_trajectory(&r.w),
+        outcome,
     );
-    sol.method = crate::input::scenario::Method::Direct;
-    sol.iterations = r.history.len();
-    sol.direct_history = r.history;
     let duals = Duals {
         lambda: r.lambda,
         zl: r.zl,
@@ -581,10 +556,10 @@ mod mesh_tests {
         settings.direct.mu_init = WARM_MU;
         let nlp = Nlp::new(&fine, &settings);
         let w0 = nlp.interpolate_from(&from);
-        let warm = solve_from(&fine, &settings, &nlp, &w0, None, &mut Silent);
+        let warm = solve_from(&settings, &nlp, &w0, None, &mut Silent);
         let d = &fine.discretization;
         let line = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
-        let cold = solve_from(&fine, &settings, &nlp, &line, None, &mut Silent);
+        let cold = solve_from(&settings, &nlp, &line, None, &mut Silent);
         eprintln!(
             "8x5 from 4x5: {} iterations (m_f {:.3} kg); from the straight line: {} (m_f {:.3} kg)",
             warm.iterations, warm.final_mass_kg, cold.iterations, cold.final_mass_kg
@@ -615,11 +590,11 @@ mod mesh_tests {
         let nlp = Nlp::new(&fine, &settings);
         let w0 = nlp.interpolate_from(&from);
         settings.direct.mu_init = WARM_MU;
-        let primal = solve_from(&fine, &settings, &nlp, &w0, None, &mut Silent);
+        let primal = solve_from(&settings, &nlp, &w0, None, &mut Silent);
         settings.direct.mu_init = crate::method::direct::solver::WARM_PD_MU;
         let carried = nlp.interpolate_duals_from(&from_nlp, &duals);
         let start = Start::PrimalDual(&w0, &carried);
-        let (pd, _) = solve_from_start(&fine, &settings, &nlp, start, &mut Silent);
+        let (pd, _) = solve_from_start(&settings, &nlp, start, &mut Silent);
         eprintln!(
             "8x5 from 4x5: primal-dual {} iterations (m_f {:.3} kg), primal {} (m_f {:.3} kg)",
             pd.iterations, pd.final_mass_kg, primal.iterations, primal.final_mass_kg

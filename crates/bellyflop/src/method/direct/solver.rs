@@ -111,7 +111,7 @@ impl DirectSolver {
             let duals = nlp.interpolate_duals_from(from, duals);
             warm.direct.mu_init = WARM_PD_MU;
             let start = DirectStart::PrimalDual(&w0, &duals);
-            direct::solve_from_start(to, &warm, &nlp, start, observer)
+            direct::solve_from_start(&warm, &nlp, start, observer)
         });
         let (sol, duals) = match primal_dual {
             Some((sol, duals)) if sol.status == Status::Solved => (sol, duals),
@@ -119,7 +119,7 @@ impl DirectSolver {
                 // The primal start, with the failed attempt's work counted.
                 warm.direct.mu_init = direct::WARM_MU;
                 let start = DirectStart::Primal(&w0, None);
-                let (mut sol, duals) = direct::solve_from_start(to, &warm, &nlp, start, observer);
+                let (mut sol, duals) = direct::solve_from_start(&warm, &nlp, start, observer);
                 if let Some((failed, _)) = tried {
                     sol.iterations += failed.iterations;
                     sol.solve_time_ms += failed.solve_time_ms;
@@ -152,7 +152,7 @@ fn replan(
     let mut guess = shifted_reference(plan, elapsed_s, &nlp.mesh, &x0, sv.formulation);
     blend_offset(&mut guess, &plan.state_at(elapsed_s), &nlp.mesh.nodes);
     let w0 = nlp.from_trajectory(&guess);
-    let warm = direct::solve_from(s, &sv, &nlp, &w0, None, observer);
+    let warm = direct::solve_from(&sv, &nlp, &w0, None, observer);
     // By Bellman's principle the new optimum is near the plan's own
     // prediction (the final-mass guess); far below it, the warm start
     // has slid into another basin. Solve cold too and keep the better.
@@ -164,15 +164,12 @@ fn replan(
     let better = cold.status == Status::Solved
         && (warm.status != Status::Solved || cold.final_mass_kg > warm.final_mass_kg);
     // Both solves' iterations, warm first, in the history and the count.
-    let mut history = warm.direct_history.clone();
-    history.extend(cold.direct_history.iter().cloned());
+    let mut history = warm.history.clone();
+    history.append(cold.history.clone());
     let (mut sol, other) = if better { (cold, warm) } else { (warm, cold) };
     sol.iterations += other.iterations;
     sol.solve_time_ms += other.solve_time_ms;
-    for (k, h) in history.iter_mut().enumerate() {
-        h.iteration = k + 1;
-    }
-    sol.direct_history = history;
+    sol.history = history;
     sol
 }
 

@@ -24,11 +24,13 @@ pub mod transcription;
 mod trust_region;
 
 use crate::input::scenario::{Formulation, Scenario, SolverSettings};
+use crate::input::settings::Method;
+use crate::method::observer::Iteration;
 pub use crate::method::observer::{Observer, Silent};
 use crate::method::scvx::transcription::{Trajectory, Transcription};
 use crate::problem::dynamics::{ix, NU_MAX, NX};
 pub use crate::solution::GROUND_TOLERANCE_M;
-use crate::solution::{self, IterationRecord, Solution, Status};
+use crate::solution::{History, IterationRecord, Solution, SolveOutcome, Status};
 use classify::Outcome;
 pub use classify::{COARSE_MESH_NODES, INFEASIBLE_VIRTUAL_CONTROL, THRUST_TOLERANCE_FRAC};
 pub use conic::ConicSolver;
@@ -172,11 +174,7 @@ impl<R: Fn(&mut SolverSettings), E: Fn(&mut SolverSettings)> Phases<R, E> {
 /// time counted in: its history is `first`'s followed by its own.
 pub fn append_phase(first: Solution, mut sol: Solution) -> Solution {
     let mut history = first.history;
-    let offset = history.len();
-    history.extend(sol.history.drain(..).map(|mut h| {
-        h.iteration += offset;
-        h
-    }));
+    history.append(std::mem::take(&mut sol.history));
     sol.history = history;
     sol.iterations = sol.history.len();
     sol.solve_time_ms += first.solve_time_ms;
@@ -254,7 +252,7 @@ pub fn solve_from_with(
             ipm_iterations: candidate.sub.ipm_iterations,
             ms: t0.elapsed().as_secs_f64() * 1e3,
         };
-        observer.on_iteration(&record);
+        observer.iteration(Iteration::Scvx(&record));
         history.push(record);
 
         let (rho, step, vc) = (candidate.rho, candidate.step, candidate.sub.virtual_control);
@@ -287,16 +285,15 @@ pub fn solve_from_with(
     }
 
     let outcome = outcome.unwrap_or_else(|| classify::at_iteration_limit(settings));
-    let checks = solution::check(tr, &reference.trajectory, reference.virtual_control);
+    let checks = tr.checks(&reference.trajectory, reference.virtual_control);
     let (status, message) = classify::physical(tr, outcome, &checks, settings);
-    let ms = start.elapsed().as_secs_f64() * 1e3;
-    Solution::new(
-        tr,
-        reference.trajectory,
+    let outcome = SolveOutcome {
+        method: Method::Scvx,
         status,
         message,
         checks,
-        history,
-        ms,
-    )
+        history: History::scvx(history),
+        solve_time_ms: start.elapsed().as_secs_f64() * 1e3,
+    };
+    Solution::new(&tr.mesh, &tr.model, tr.form, reference.trajectory, outcome)
 }

@@ -23,6 +23,7 @@ pub use crate::collocation::scaling::Scaling;
 pub use crate::collocation::trajectory::Trajectory;
 use crate::input::scenario::{Formulation, Scenario, SolverSettings};
 use crate::problem::dynamics::{self, ix, Model, NU_MAX, NX};
+use crate::solution::{node_thrust_n, Checks};
 
 /// Index map of the decision vector.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -265,9 +266,52 @@ impl Transcription {
 
     /// Index of σ in the control vector.
     pub fn sigma_index(&self) -> usize {
-        match self.form {
-            Formulation::Paper | Formulation::Vector => 2,
-            Formulation::Exact => 0,
+        dynamics::sigma_index(self.form)
+    }
+
+    /// The physical checks of a trajectory of this transcription: the
+    /// relaxation gap and thrust alignment at each collocation point, the
+    /// thrust bounds at every reported thrust, the nonlinear defects and
+    /// the ground.
+    pub fn checks(&self, t: &Trajectory, virtual_control: f64) -> Checks {
+        let mut gap = 0.0f64;
+        let mut align = 1.0f64;
+        let mut bound = 0.0f64;
+        for i in 0..self.layout.n {
+            let x = &t.x[i];
+            let (txm, tzm, sigma) =
+                dynamics::thrust_components(self.form, x, &t.u[i][..self.layout.nu]);
+            let norm = txm.hypot(tzm);
+            if sigma > 0.0 {
+                gap = gap.max(1.0 - norm / sigma);
+            }
+            let phi = x[ix::THETA] + x[ix::DELTA];
+            if norm > 0.0 {
+                align = align.min((txm * phi.sin() + tzm * phi.cos()) / norm);
+            }
+        }
+        // Every reported thrust, the final node's included.
+        for thrust in node_thrust_n(&self.model, self.form, t) {
+            bound = bound
+                .max(self.model.min_thrust_n - thrust)
+                .max(thrust - self.model.max_thrust_n);
+        }
+        let max_defect = self
+            .defects(t)
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let min_altitude_margin_m =
+            t.x.iter()
+                .map(|x| x[ix::Z] - self.xf[ix::Z])
+                .fold(f64::INFINITY, f64::min);
+        Checks {
+            min_altitude_margin_m,
+            relaxation_gap: gap,
+            thrust_alignment_min: align,
+            thrust_bound_violation_n: bound,
+            max_defect,
+            virtual_control,
         }
     }
 
