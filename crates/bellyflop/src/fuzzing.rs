@@ -264,7 +264,7 @@ const LINES: &[(&str, &str)] = &[
 ];
 
 /// One seeded mutation of `input`, structure-aware where it pays: numbers
-/// become [`INTERESTING`] values or another field's value (e.g.
+/// become `INTERESTING` values or another field's value (e.g.
 /// `cg_m = length_m`), lines are dropped, duplicated, swapped or taken from
 /// `others` (the rest of the corpus), and raw bytes are flipped, inserted
 /// (invalid UTF-8 too) or cut. Several mutations may stack.

@@ -21,9 +21,11 @@
 //! - [`guidance`]: the closed loop: navigation, re-planning, control;
 //! - [`sim`]: the truth plant, dispersions and the touchdown verdict;
 //! - [`output`]: the JSON of a solve and the records of a Monte Carlo campaign;
-//! - [`fuzzing`]: the function the fuzz target and the corpus replay run on
-//!   raw scenario bytes, with the invariants every answer must keep.
+//! - `fuzzing` (with the `fuzzing` feature, test tooling): the function the
+//!   fuzz target and the corpus replay run on raw scenario bytes, with the
+//!   invariants every answer must keep.
 pub mod collocation;
+#[cfg(feature = "fuzzing")]
 pub mod fuzzing;
 pub mod guidance;
 pub mod input;

@@ -5,7 +5,7 @@
 //! t_f − elapsed_s. The new mesh's node τ' ∈ [−1, 1] maps to the old plan's
 //! time t = elapsed_s + (τ' + 1)/2·(t_f − elapsed_s); the reference takes the
 //! old plan's state and control interpolants there (the piecewise polynomials
-//! of [`Mesh`]), with the first node replaced by the measured state. By
+//! of [`crate::collocation::mesh::Mesh`]), with the first node replaced by the measured state. By
 //! Bellman's principle the old plan's tail is optimal from its own state, so
 //! from a state near the plan the reference is nearly optimal. A re-plan
 //! therefore solves the exact formulation directly (the relaxed first phase

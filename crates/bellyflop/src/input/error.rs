@@ -129,7 +129,7 @@ pub(crate) fn read_text(kind: FileKind, path: &std::path::Path) -> Result<String
 
 /// Bytes as UTF-8 text; bytes that are not UTF-8 give [`InputError::NotUtf8`]
 /// naming `path` and where the first invalid byte is. [`read_text`] after
-/// reading the file, and [`crate::fuzzing::exercise`] on raw fuzz input.
+/// reading the file, and `bellyflop::fuzzing::exercise` (with the `fuzzing` feature) on raw fuzz input.
 pub(crate) fn decode_text(
     kind: FileKind,
     path: &str,

@@ -452,8 +452,8 @@ pub(crate) fn mesh_layout(field: &str, mesh: &MeshLayout) -> Result<(), InputErr
     Ok(())
 }
 
-/// Solver ranges: see [`MAX_ITERATIONS`], [`TOLERANCE`], [`WEIGHT`],
-/// [`TRUST_RADIUS`], [`RHO`], [`FACTOR`].
+/// Solver ranges: see `MAX_ITERATIONS`, `TOLERANCE`, `WEIGHT`,
+/// `TRUST_RADIUS`, `RHO`, `FACTOR`.
 /// Every solver setting against its range, and the trust-region rule's
 /// ordering (ρ0 < ρ1 < ρ2, r_min ≤ r_initial ≤ r_max).
 pub fn solver(s: &SolverSettings) -> Result<(), InputError> {

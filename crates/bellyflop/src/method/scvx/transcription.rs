@@ -1,7 +1,7 @@
 //! SCvx's transcription of P2 on the LGR mesh: the variable layout, the
 //! scaling, the bounds, the defects and the merit function of the convex
 //! subproblem P4 (Eq. 26–30). Its assembly as conic data for Clarabel, and
-//! Clarabel itself, live on the SCvx side ([`crate::method::scvx::subproblem`]).
+//! Clarabel itself, live on the SCvx side (`method::scvx::subproblem`).
 //!
 //! Decision variables are scaled
 //! to order one (`value = offset + scale·ẑ`); every constraint row is divided by
