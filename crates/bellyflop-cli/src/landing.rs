@@ -1,7 +1,9 @@
 //! Landing precision of a solution: re-propagation through the library, and
 //! its summary lines and JSON fields.
 
-use bellyflop::verify::propagate::{IntegrationError, Interpolation, Propagation};
+use bellyflop::collocation::interpolation::Interpolation;
+use bellyflop::verify::ode::IntegrationError;
+use bellyflop::verify::propagate::Propagation;
 use bellyflop::{Scenario, Solution};
 use clap::ValueEnum;
 use serde_json::Value;

@@ -3,7 +3,8 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use bellyflop::verify::propagate::{Interpolant, Propagation};
+use bellyflop::collocation::interpolation::Interpolant;
+use bellyflop::verify::propagate::Propagation;
 use bellyflop::{Scenario, Solution, SolverSettings};
 
 use crate::error::OutputError;

@@ -99,7 +99,7 @@ impl bellyflop::Observer for Progress {
         }
     }
 
-    fn pass(&mut self, p: &bellyflop::refine::Pass) {
+    fn pass(&mut self, p: &bellyflop::solution::Pass) {
         if !self.quiet {
             eprintln!(
                 "pass {:>2}  N {:>3} over {:>2} intervals  {:<9}  {:>3} iterations  {:>7.2} ms  m_f {:>10.2} kg  max error {:>8.1e}  events at {}",

@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::Status;
 use serde_json::{json, Value};
 
@@ -62,7 +62,7 @@ pub fn run(args: &SweepArgs) -> ExitCode {
             "scenario {}, {:?} formulation, landing error by DOP853 re-propagation with {} controls",
             base.scenario.name,
             base.solver.formulation,
-            bellyflop::verify::propagate::Interpolation::from(args.interpolation).as_str()
+            bellyflop::collocation::interpolation::Interpolation::from(args.interpolation).as_str()
         );
         println!(
             "{:>4}  {:<13} {:>9} {:>11} {:>9} {:>10} {:>10} {:>11} {:>6} {:>9}",
@@ -128,7 +128,7 @@ pub fn run(args: &SweepArgs) -> ExitCode {
         let out: Value = json!({
             "scenario": base.scenario.name,
             "formulation": base.solver.formulation,
-            "interpolation": bellyflop::verify::propagate::Interpolation::from(args.interpolation),
+            "interpolation": bellyflop::collocation::interpolation::Interpolation::from(args.interpolation),
             "runs": runs,
         });
         println!("{out}");

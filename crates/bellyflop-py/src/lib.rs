@@ -8,10 +8,10 @@
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
+use bellyflop::collocation::interpolation::Interpolation;
 use bellyflop::guidance::SimConfig as CoreSimConfig;
 use bellyflop::output::campaign::{self, RunRow};
 use bellyflop::sim::RunOutcome;
-use bellyflop::verify::propagate::Interpolation;
 // The Python `Scenario` is a whole scenario file: the problem and its
 // `[solver]` settings (bellyflop::Case).
 use bellyflop::input::overrides::Overrides;
@@ -541,7 +541,7 @@ fn solve(
         .map_err(input_error)?;
     let (value, core_ms) = detached(py, move || {
         let start = Instant::now();
-        let solution = s.solve(&mut bellyflop::method::scvx::Silent);
+        let solution = s.solve(&mut bellyflop::method::observer::Silent);
         let propagation = report::propagate(&s.scenario, &solution, interpolation);
         let v = report::solve_json(&s.scenario, &solution, &propagation);
         (v, start.elapsed().as_secs_f64() * 1e3)

@@ -23,7 +23,7 @@ use std::time::Duration;
 use bellyflop::method::direct::kkt::{KktMatrix, KktSolver};
 use bellyflop::method::direct::nlp::{Nlp, NL, NS};
 use bellyflop::method::direct::{self, lagrangian_blocks, DirectSettings};
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::{Case, Method, Status};
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};

@@ -9,9 +9,10 @@ use std::time::Duration;
 
 use bellyflop::collocation::radau::Lgr;
 use bellyflop::guidance::planner::{initial_state, Planner};
+use bellyflop::method::observer::Silent;
+use bellyflop::method::scvx::straight_line;
 use bellyflop::method::scvx::transcription::Transcription;
 use bellyflop::method::scvx::ConicSolver;
-use bellyflop::method::scvx::{straight_line, Silent};
 use bellyflop::problem::dynamics::linearize;
 use bellyflop::{Case, Formulation};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};

@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 use bellyflop::guidance::planner::{initial_state, Planner};
 use bellyflop::method::direct::nlp::Nlp;
 use bellyflop::method::direct::{self, DirectSettings};
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::Case;
 
 struct Counting;

@@ -13,7 +13,7 @@
 use std::time::Instant;
 
 use bellyflop::guidance::planner::Planner;
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::{Case, Status};
 
 fn paper(n: usize) -> Case {

@@ -1,7 +1,7 @@
 //! Iteration counts and optima over N, t_f guesses and dispersed initial states.
 //!
 //! `cargo run --release -p bellyflop --example convergence [exact|paper|vector ...]`
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::{Case, Formulation};
 
 fn report(label: &str, s: &Case) {

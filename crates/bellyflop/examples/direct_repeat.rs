@@ -3,7 +3,7 @@
 //!
 //!     cargo run --release -p bellyflop --example direct_repeat -- [N] [RUNS] [INTERVALS]
 
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::{Case, Method};
 
 fn main() {

@@ -13,7 +13,7 @@
 //! summed solve time, the mass gaps to IPOPT, and every state where we do
 //! worse.
 
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::{Case, Method, Status};
 
 struct Row {

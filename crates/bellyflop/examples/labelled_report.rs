@@ -8,7 +8,7 @@
 #[path = "../tests/common/labelled.rs"]
 mod labelled;
 
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::problem::feasibility;
 use bellyflop::Method;
 use labelled::*;

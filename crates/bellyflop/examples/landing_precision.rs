@@ -14,10 +14,11 @@
 //!
 //! A first argument `paper` solves with the paper's formulation instead of the
 //! default one.
-use bellyflop::method::scvx::Silent;
+use bellyflop::collocation::interpolation::Interpolation;
+use bellyflop::method::observer::Silent;
 use bellyflop::problem::dynamics::Model;
 use bellyflop::verify::propagate::{
-    integrate_controls, landing_error, propagate, Controls, Interpolation, NozzleModel, Options,
+    integrate_controls, landing_error, propagate, Controls, NozzleModel, Options,
 };
 use bellyflop::Case;
 

@@ -14,7 +14,7 @@ mod random_states;
 
 use std::collections::BTreeMap;
 
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::Method;
 use rand::{Rng, SeedableRng};
 use random_states::{check, scenario, BOX};

@@ -12,7 +12,7 @@
 //! these are single runs.
 
 use bellyflop::guidance::planner::{initial_state, Planner};
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::Case;
 
 fn main() {

@@ -3,7 +3,7 @@
 //!
 //! `cargo run --release -p bellyflop --example replan_along \[N\]`
 use bellyflop::guidance::planner::{initial_state, Planner};
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::Case;
 
 fn main() {

@@ -16,7 +16,7 @@
 //!   and only if it is `solved`, a message exactly when it is not `solved`,
 //!   and JSON that names its status and method;
 //! - a `solved` answer has a finite trajectory, stays above the ground
-//!   (within [`crate::method::scvx::GROUND_TOLERANCE_M`]), keeps every reported
+//!   (within [`crate::solution::GROUND_TOLERANCE_M`]), keeps every reported
 //!   thrust within [T_min, T_max] (within
 //!   [`crate::method::scvx::THRUST_TOLERANCE_FRAC`] of T_max), and thrusts out of
 //!   the nozzle.
@@ -32,7 +32,8 @@
 use rand::Rng;
 
 use crate::input::error::{FileKind, InputError};
-use crate::input::scenario::{Case, Method, Scenario};
+use crate::input::scenario::{Case, Scenario};
+use crate::input::settings::Method;
 use crate::solution::{Solution, Status};
 
 /// Iteration caps of [`exercise`]'s solves.
@@ -96,7 +97,7 @@ pub fn exercise_with(bytes: &[u8], budget: Budget) -> Outcome {
     let mut answers = Vec::with_capacity(2);
     for method in [Method::Direct, Method::Scvx] {
         s.solver.method = method;
-        let sol = s.solve(&mut crate::method::scvx::Silent);
+        let sol = s.solve(&mut crate::method::observer::Silent);
         check_answer(&s.scenario, method, &sol);
         answers.push((method, sol.status));
     }
@@ -164,7 +165,7 @@ fn check_answer(s: &Scenario, method: Method, sol: &Solution) {
         let c = &sol.checks;
         assert!(sol.trajectory.is_finite(), "solved, but not finite");
         assert!(
-            c.min_altitude_margin_m >= -crate::method::scvx::GROUND_TOLERANCE_M,
+            c.min_altitude_margin_m >= -crate::solution::GROUND_TOLERANCE_M,
             "solved {} m below the ground",
             -c.min_altitude_margin_m
         );

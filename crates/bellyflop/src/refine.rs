@@ -44,7 +44,7 @@ use crate::input::settings::{RefinementSettings, SolverSettings};
 use crate::method::observer::Observer;
 use crate::method::{Solver, Start};
 use crate::problem::dynamics::Model;
-pub use crate::solution::{Pass, Refinement, Stop};
+use crate::solution::{Pass, Refinement, Stop};
 use crate::solution::{Solution, Status};
 use crate::verify::mesh_error;
 

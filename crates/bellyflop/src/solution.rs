@@ -6,7 +6,7 @@ use crate::collocation::mesh::Mesh;
 use crate::collocation::plan::Plan;
 use crate::collocation::trajectory::Trajectory;
 use crate::input::mesh_layout::MeshLayout;
-use crate::input::scenario::{Formulation, Method};
+use crate::input::settings::{Formulation, Method};
 use crate::problem::dynamics::{self, ix, Model};
 
 /// How a solve ended. Each variant has its own exit code.

@@ -2,7 +2,7 @@
 //! solved answer whose re-integrated landing error is beyond the scenario's
 //! tolerances is `inaccurate`, for both methods.
 
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::verify::propagate::{propagate, Options};
 use bellyflop::{Case, Method, Solution, Status};
 

@@ -7,7 +7,7 @@
 
 use bellyflop::method::direct::nlp::Nlp;
 use bellyflop::method::direct::{self, DirectSettings};
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::{Case, Method, Solution, Status};
 
 fn direct_paper(edit: impl FnOnce(&mut Case)) -> Solution {

@@ -3,7 +3,7 @@
 //! bound), in `tests/data/labelled_states.toml`. No feasible state is
 //! labelled `infeasible` by `bellyflop::solve`, and every certified state is.
 
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::problem::feasibility::{self, Certificate};
 use bellyflop::{Method, Status};
 

@@ -2,8 +2,9 @@
 //! integrated through Eq. (1)–(3) with the optimized controls, lands within
 //! 2 m and 0.5 m/s of the target.
 
-use bellyflop::method::scvx::Silent;
-use bellyflop::verify::propagate::{propagate, Interpolation, Options, Propagation};
+use bellyflop::collocation::interpolation::Interpolation;
+use bellyflop::method::observer::Silent;
+use bellyflop::verify::propagate::{propagate, Options, Propagation};
 use bellyflop::{Case, Formulation, Status};
 
 const MAX_POSITION_M: f64 = 2.0;

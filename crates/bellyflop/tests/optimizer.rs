@@ -1,6 +1,6 @@
 //! The core optimizer against the paper's numbers (issue 2, "Must show").
 
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::{Case, Formulation, Scenario, Solution, Status};
 
 /// Table 3, SCvx row.
@@ -521,7 +521,7 @@ fn micrometre_dip_below_the_pad_is_solved() {
         "no dip any more: {:?}",
         sol.checks
     );
-    assert!(sol.checks.min_altitude_margin_m >= -bellyflop::method::scvx::GROUND_TOLERANCE_M);
+    assert!(sol.checks.min_altitude_margin_m >= -bellyflop::solution::GROUND_TOLERANCE_M);
     assert_feasible(&sol, "cp_m = 45");
 }
 

@@ -6,7 +6,7 @@
 #[path = "common/random_states.rs"]
 mod random_states;
 
-use bellyflop::method::scvx::Silent;
+use bellyflop::method::observer::Silent;
 use bellyflop::Method;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};

@@ -135,7 +135,7 @@ fn default_solver_settings_validate() {
     let s = Case::from_toml_str(without_solver).expect("defaults are valid");
     assert_eq!(
         s.solver,
-        bellyflop::input::scenario::SolverSettings::default()
+        bellyflop::input::settings::SolverSettings::default()
     );
 }
 

@@ -1,7 +1,8 @@
 //! The scaling of the transcription's variables to order one, shared by
 //! every method (value = offset + scale·ẑ).
 
-use crate::input::scenario::{Formulation, Scenario};
+use crate::input::scenario::Scenario;
+use crate::input::settings::Formulation;
 use crate::problem::dynamics::{Model, NU_MAX, NX};
 
 /// Affine scaling of every trajectory variable: value = offset + scale·ẑ.

@@ -105,7 +105,7 @@ pub struct GuidanceConfig {
     /// to 0.43 m/s.
     pub wind_estimate: bool,
     /// Make the thrust margin soft: plans may use the engine's full range
-    /// where they must, at a cost ([`crate::input::scenario::SolverSettings::thrust_margin_frac`],
+    /// where they must, at a cost ([`crate::input::settings::SolverSettings::thrust_margin_frac`],
     /// weight `thrust_margin_weight`), so a vehicle that has fallen
     /// slightly behind its plan on the final burn still gets a re-plan
     /// instead of an infeasible one. False: the margin is a hard limit.
@@ -135,7 +135,7 @@ pub struct GuidanceConfig {
     /// spec at 3). Range [0, 10].
     pub gate_speed_mps: f64,
     /// Weight of the re-plans' soft terminal x and Vx
-    /// ([`crate::input::scenario::SolverSettings::terminal_lateral_weight`]);
+    /// ([`crate::input::settings::SolverSettings::terminal_lateral_weight`]);
     /// 0 = hard. In the last seconds a late re-plan can seldom null the
     /// lateral error any more (the pitch dynamics are slow); with hard
     /// terminal x and Vx it failed, and the stale plan flew the vehicle past

@@ -16,14 +16,15 @@
 
 use crate::collocation::plan::Plan;
 use crate::input::error::InputError;
-use crate::input::scenario::{InitialState, Method, Scenario, SolverSettings};
+use crate::input::scenario::{InitialState, Scenario};
+use crate::input::settings::{Method, SolverSettings};
 use crate::method::observer::Observer;
 use crate::method::{self, Replan, Solver, Start};
 use crate::problem::dynamics::{ix, NX};
 use crate::solution::Solution;
 
 /// Proximal weight of a warm re-plan's subproblems
-/// ([`crate::input::scenario::SolverSettings::proximal_weight`]). Measured with
+/// ([`crate::input::settings::SolverSettings::proximal_weight`]). Measured with
 /// examples/replan (nominal state 0.5 s along the plan, exact form directly):
 /// at N = 10, 20 and 40 it takes 4, 2 and 3 iterations with 0.01, against
 /// 16, 15 and 19 with 0, 15, 13 and 20 with 0.003, and 3, 4 and 6 with 0.03.

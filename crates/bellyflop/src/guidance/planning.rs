@@ -7,7 +7,8 @@
 use crate::guidance::config::GuidanceConfig;
 use crate::guidance::planner::{final_mass_guess, initial_state, Planner};
 use crate::input::error::InputError;
-use crate::input::scenario::{Case, InitialState, Scenario, SolverSettings, TerminalState};
+use crate::input::scenario::{Case, InitialState, Scenario, TerminalState};
+use crate::input::settings::SolverSettings;
 use crate::method::observer::Silent;
 use crate::problem::dynamics::{ix, Model};
 use crate::sim::PlantState;

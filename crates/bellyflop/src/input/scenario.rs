@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::input::error::InputError;
 use crate::input::mesh_layout::MeshLayout;
-pub use crate::input::settings::{Formulation, Method, SolverSettings};
+use crate::input::settings::SolverSettings;
 
 /// Vehicle parameters (paper Table 1, plus the drag coefficient from NOTES.md).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

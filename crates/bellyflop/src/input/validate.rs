@@ -15,8 +15,9 @@
 use crate::input::error::InputError;
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::{
-    Discretization, Environment, InitialState, Scenario, SolverSettings, TerminalState, Vehicle,
+    Discretization, Environment, InitialState, Scenario, TerminalState, Vehicle,
 };
+use crate::input::settings::SolverSettings;
 
 /// An allowed interval for one floating-point field.
 #[derive(Debug, Clone, Copy)]

@@ -4,9 +4,11 @@
 
 use serde_json::{json, Value};
 
+use crate::collocation::interpolation::Interpolation;
 use crate::guidance::{Flight, SimConfig};
 use crate::sim::RunOutcome;
-use crate::verify::propagate::{self, IntegrationError, Interpolation, Options, Propagation};
+use crate::verify::ode::IntegrationError;
+use crate::verify::propagate::{self, Options, Propagation};
 use crate::{Scenario, Solution};
 
 /// Re-propagate `solution` with the default integrator and nozzle model and

@@ -12,7 +12,8 @@
 
 use num_dual::{DualNum, DualSVec64};
 
-use crate::input::scenario::{Environment, Formulation, Vehicle};
+use crate::input::scenario::{Environment, Vehicle};
+use crate::input::settings::Formulation;
 
 /// Number of LCvx states: x, z, Vx, Vz, θ, w, ω, δ.
 pub const NX: usize = 8;

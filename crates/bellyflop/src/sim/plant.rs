@@ -621,7 +621,7 @@ fn crossing_time(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::verify::propagate::{Dop853, Stats};
+    use crate::verify::ode::{Dop853, Stats};
 
     /// The paper's scenario with optional vacuum and a deep-throttling engine.
     fn scenario(vacuum: bool, min_thrust_n: f64) -> Scenario {

@@ -10,7 +10,8 @@
 //! `solver.landing_velocity_tolerance_mps`. Beyond either, the status becomes
 //! [`Status::Inaccurate`].
 
-use crate::input::scenario::{Scenario, SolverSettings};
+use crate::input::scenario::Scenario;
+use crate::input::settings::SolverSettings;
 use crate::solution::{Solution, Status};
 use crate::verify::propagate::{self, Options};
 

@@ -34,7 +34,7 @@ use crate::input::scenario::Scenario;
 use crate::problem::dynamics::{self, Model};
 pub use crate::solution::IntervalError;
 use crate::solution::{Solution, STATE_COLUMN_NAMES};
-use crate::verify::propagate::{Dop853, IntegrationError, Stats};
+use crate::verify::ode::{Dop853, IntegrationError, Stats};
 
 /// The estimate on every interval of `solution`'s mesh ([`Solution::mesh`]),
 /// with the vehicle model of `scenario`.
@@ -219,7 +219,11 @@ mod tests {
         let at_nodes: Vec<[f64; 8]> = (0..=n).map(|k| ys[20 * k]).collect();
         let col = |i: usize| at_nodes.iter().map(|y| y[i]).collect::<Vec<f64>>();
         // A solution of the right shape, its arrays then replaced.
-        let mut sol = crate::solve(&s, &Default::default(), &mut crate::method::scvx::Silent);
+        let mut sol = crate::solve(
+            &s,
+            &Default::default(),
+            &mut crate::method::observer::Silent,
+        );
         assert_eq!((sol.nodes, sol.intervals), (n, intervals));
         sol.tf_s = tf;
         sol.t_s = t_nodes.clone();
@@ -415,7 +419,11 @@ mod tests {
     #[test]
     fn a_solution_without_nodes_is_an_error() {
         let s = Scenario::paper();
-        let mut sol = crate::solve(&s, &Default::default(), &mut crate::method::scvx::Silent);
+        let mut sol = crate::solve(
+            &s,
+            &Default::default(),
+            &mut crate::method::observer::Silent,
+        );
         sol.z_m.pop();
         assert!(matches!(
             estimate(&s, &sol),

@@ -85,11 +85,11 @@
 use serde::Serialize;
 
 use crate::collocation::control_profile::Profile;
-pub use crate::collocation::interpolation::{Interpolant, Interpolation};
+use crate::collocation::interpolation::{Interpolant, Interpolation};
 use crate::input::scenario::Scenario;
 use crate::problem::dynamics::{self, Model};
 use crate::solution::Solution;
-pub use crate::verify::ode::{Dop853, IntegrationError, Stats};
+use crate::verify::ode::{Dop853, IntegrationError, Stats};
 
 /// Where the nozzle angle of the propagation comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]

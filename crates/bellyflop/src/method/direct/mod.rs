@@ -495,7 +495,7 @@ mod mesh_tests {
     use super::*;
     use crate::input::mesh_layout::MeshLayout;
     use crate::input::scenario::{Case, Scenario};
-    use crate::method::scvx::Silent;
+    use crate::method::observer::Silent;
 
     /// The paper's case and its (direct) settings on N points over M
     /// uniform intervals.
@@ -643,7 +643,7 @@ mod mesh_tests {
         assert_eq!(points, layout.points);
         // SCvx on the same mesh (the method alone, as the direct answer above).
         let mut scvx = sv.clone();
-        scvx.method = crate::input::scenario::Method::Scvx;
+        scvx.method = crate::input::settings::Method::Scvx;
         let other = crate::method::scvx::solve(&s, &scvx, &mut Silent);
         eprintln!(
             "scvx non-uniform: {:?} m_f {:.3} kg, {} iterations",

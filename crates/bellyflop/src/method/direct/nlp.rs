@@ -24,7 +24,8 @@ use num_dual::Dual2SVec64;
 
 use crate::collocation::mesh::Mesh;
 use crate::collocation::scaling::Scaling;
-use crate::input::scenario::{Formulation, Scenario, SolverSettings};
+use crate::input::scenario::Scenario;
+use crate::input::settings::{Formulation, SolverSettings};
 use crate::problem::dynamics::{self, Model};
 
 /// States of P2 at a node: x, z, Vx, Vz, θ, w, m, δ.
@@ -109,7 +110,7 @@ pub struct Nlp {
     pub soft: SoftTerms,
 }
 
-/// The soft constraints of [`crate::input::scenario::SolverSettings`], as exact
+/// The soft constraints of [`crate::input::settings::SolverSettings`], as exact
 /// penalties in the objective, in scaled units:
 ///
 /// - thrust margin: the thrust is T + A − B with T in the band

@@ -4,8 +4,9 @@
 //! checks that a `solved` answer must still pass.
 
 use super::step::Candidate;
-use crate::input::scenario::SolverSettings;
-use crate::method::scvx::transcription::{Trajectory, Transcription};
+use crate::collocation::trajectory::Trajectory;
+use crate::input::settings::SolverSettings;
+use crate::method::scvx::transcription::Transcription;
 use crate::problem::dynamics::{ix, NX};
 use crate::solution::{Checks, IterationRecord, Status, GROUND_TOLERANCE_M};
 

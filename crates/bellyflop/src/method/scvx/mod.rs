@@ -23,13 +23,15 @@ mod subproblem;
 pub mod transcription;
 mod trust_region;
 
-use crate::input::scenario::{Formulation, Scenario, SolverSettings};
+use crate::collocation::trajectory::Trajectory;
+use crate::input::scenario::Scenario;
 use crate::input::settings::Method;
+use crate::input::settings::{Formulation, SolverSettings};
 use crate::method::observer::Iteration;
-pub use crate::method::observer::{Observer, Silent};
-use crate::method::scvx::transcription::{Trajectory, Transcription};
+use crate::method::observer::Observer;
+use crate::method::scvx::transcription::Transcription;
 use crate::problem::dynamics::{ix, NU_MAX, NX};
-pub use crate::solution::GROUND_TOLERANCE_M;
+
 use crate::solution::{History, IterationRecord, Solution, SolveOutcome, Status};
 use classify::Outcome;
 pub use classify::{COARSE_MESH_NODES, INFEASIBLE_VIRTUAL_CONTROL, THRUST_TOLERANCE_FRAC};

@@ -8,7 +8,7 @@
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{SolverStatus, SupportedConeT};
 
-use crate::method::scvx::transcription::Trajectory;
+use crate::collocation::trajectory::Trajectory;
 
 /// Conic data of one subproblem: minimize qᵀz s.t. A z + s = b, s ∈ cones.
 #[derive(Debug, Clone)]

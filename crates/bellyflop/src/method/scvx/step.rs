@@ -6,8 +6,9 @@
 
 use super::conic::ConicSolver;
 use super::socp::SubproblemResult;
-use crate::input::scenario::SolverSettings;
-use crate::method::scvx::transcription::{Merit, Trajectory, Transcription};
+use crate::collocation::trajectory::Trajectory;
+use crate::input::settings::SolverSettings;
+use crate::method::scvx::transcription::{Merit, Transcription};
 
 /// The iterate that the next subproblem linearizes about: the last accepted
 /// candidate (at first the initial guess).

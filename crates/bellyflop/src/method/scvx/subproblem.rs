@@ -12,8 +12,9 @@ use clarabel::solver::SupportedConeT;
 
 use super::conic::ConicSolver;
 use super::socp::{ConicData, SubproblemResult};
-use crate::input::scenario::Formulation;
-use crate::method::scvx::transcription::{vector_residuals, Trajectory, Transcription};
+use crate::collocation::trajectory::Trajectory;
+use crate::input::settings::Formulation;
+use crate::method::scvx::transcription::{vector_residuals, Transcription};
 use crate::problem::dynamics::{self, ix, NX};
 
 /// Regularization ε of the second-order correction's system [I Aᵀ; A −εI]:

@@ -14,14 +14,15 @@
 //! Their weighted sum is the exact penalty that keeps every subproblem feasible.
 //! Two optional soft constraints for closed-loop plans follow, each at its own
 //! weight and part of the cost, not of the infeasibility: the use of a thrust
-//! margin ([`crate::input::scenario::SolverSettings::thrust_margin_frac`]) per node
+//! margin ([`crate::input::settings::SolverSettings::thrust_margin_frac`]) per node
 //! and side, and the misses of x(t_f) and Vx(t_f)
-//! ([`crate::input::scenario::SolverSettings::terminal_lateral_weight`]).
+//! ([`crate::input::settings::SolverSettings::terminal_lateral_weight`]).
 
 use crate::collocation::mesh::Mesh;
-pub use crate::collocation::scaling::Scaling;
-pub use crate::collocation::trajectory::Trajectory;
-use crate::input::scenario::{Formulation, Scenario, SolverSettings};
+use crate::collocation::scaling::Scaling;
+use crate::collocation::trajectory::Trajectory;
+use crate::input::scenario::Scenario;
+use crate::input::settings::{Formulation, SolverSettings};
 use crate::problem::dynamics::{self, ix, Model, NU_MAX, NX};
 use crate::solution::{node_thrust_n, Checks};
 
@@ -34,7 +35,7 @@ pub struct Layout {
     /// 0 (exact), 1 (paper: direction, Eq. 27), 2 (vector: direction and magnitude).
     pub path_rows: usize,
     /// Whether the soft thrust margin's variables are present
-    /// ([`crate::input::scenario::SolverSettings::thrust_margin_frac`]).
+    /// ([`crate::input::settings::SolverSettings::thrust_margin_frac`]).
     pub soft_margin: bool,
     /// Whether x(t_f) and Vx(t_f) are soft (their misses are variables).
     pub soft_terminal: bool,

@@ -3,7 +3,7 @@
 //! ρ < ρ1, and grows (up to its maximum) when ρ ≥ ρ2 — with one addition,
 //! the shrink of a creeping iteration.
 
-use crate::input::scenario::SolverSettings;
+use crate::input::settings::SolverSettings;
 
 /// Consecutive creeping steps (see [`TrustRegion::update`]) after which the
 /// trust region shrinks.
