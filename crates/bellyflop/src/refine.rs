@@ -279,151 +279,19 @@ pub fn next_layout(
     event_breaks: &[Event],
     rs: &RefinementSettings,
 ) -> (MeshLayout, Vec<Event>) {
-    // Whether step 2 will place an event inside interval k (split there,
-    // or move an event break at its end onto it): a switch always; an
-    // arc's end if it leaves no interval narrower than MIN_ARC_WIDTH, or if
-    // an event break of its kind ends the interval.
-    let kind = |a: &Event, b: &Event| a.switch.map(|s| s.0) == b.switch.map(|s| s.0);
-    let claims = |k: usize, ev: &Event| {
-        let iv = &mesh.intervals[k];
-        let inside = ev.tau > iv.tau_lo && ev.tau < iv.tau_hi;
-        let at_end = |b: f64| {
-            event_breaks
-                .iter()
-                .any(|e| kind(e, ev) && (e.tau - b).abs() < 1e-12)
-        };
-        inside
-            && errors[k] > rs.tolerance
-            && (ev.switch.is_some()
-                || (ev.tau - iv.tau_lo).min(iv.tau_hi - ev.tau) >= MIN_ARC_WIDTH
-                || at_end(iv.tau_lo)
-                || at_end(iv.tau_hi))
+    let pass = NextMesh {
+        mesh,
+        errors,
+        event_breaks,
+        rs,
     };
     let claimed: Vec<bool> = (0..mesh.intervals.len())
-        .map(|k| events.iter().any(|ev| claims(k, ev)))
+        .map(|k| events.iter().any(|ev| pass.claims(k, ev)))
         .collect();
-    // The ph rule's wish per interval: its new point count (a split past
-    // `max_points`).
-    let wish: Vec<usize> = mesh
-        .intervals
-        .iter()
-        .zip(errors)
-        .enumerate()
-        .map(|(k, (iv, &e))| {
-            let n = iv.points;
-            // An interval with an event placed inside is split there (step
-            // 2), not raised or split evenly: its error is the event's. One
-            // whose events are too near its ends to place follows the ph
-            // rule (it stalled otherwise, its error never falling).
-            if e <= rs.tolerance || claimed[k] {
-                return n;
-            }
-            let raise = ((e / rs.tolerance).ln() / (n.max(2) as f64).ln())
-                .ceil()
-                .max(1.0) as usize;
-            n + raise
-        })
-        .collect();
-    let cost = |k: usize| {
-        let (n, want) = (mesh.intervals[k].points, wish[k]);
-        let after = if want <= rs.max_points {
-            want
-        } else {
-            want.div_ceil(rs.min_points).max(2) * rs.min_points
-        };
-        after.saturating_sub(n)
-    };
-    // Within the point budget (less what the events' splits may take), the
-    // worst intervals first; the others keep their points this pass.
-    let reserve = (0..mesh.intervals.len())
-        .map(|k| events.iter().filter(|ev| claims(k, ev)).count())
-        .sum::<usize>()
-        * rs.min_points;
-    let mut budget = rs.max_total_points.saturating_sub(mesh.n + reserve);
-    let mut order: Vec<usize> = (0..wish.len()).collect();
-    order.sort_by(|&a, &b| errors[b].total_cmp(&errors[a]));
-    let mut grant = vec![false; wish.len()];
-    for k in order {
-        if errors[k] > rs.tolerance && cost(k) <= budget {
-            budget -= cost(k);
-            grant[k] = true;
-        }
-    }
-    // (τ_lo, τ_hi, points) of each interval of the new mesh.
-    let mut segs: Vec<(f64, f64, usize)> = Vec::new();
-    for (k, iv) in mesh.intervals.iter().enumerate() {
-        let n = iv.points;
-        if !grant[k] {
-            segs.push((iv.tau_lo, iv.tau_hi, n));
-            continue;
-        }
-        let want = wish[k];
-        if want <= rs.max_points {
-            segs.push((iv.tau_lo, iv.tau_hi, want));
-        } else {
-            let b = want.div_ceil(rs.min_points).max(2);
-            let h = (iv.tau_hi - iv.tau_lo) / b as f64;
-            for j in 0..b {
-                let hi = if j + 1 == b {
-                    iv.tau_hi
-                } else {
-                    iv.tau_lo + h * (j + 1) as f64
-                };
-                segs.push((iv.tau_lo + h * j as f64, hi, rs.min_points));
-            }
-        }
-    }
-    let mut moved = vec![false; event_breaks.len()];
-    let mut placed = Vec::new();
-    for &event in events {
-        let tau = event.tau;
-        // Only where the old mesh is not yet accurate; and an arc's end,
-        // placed only to half a point spacing, never makes an interval
-        // narrower than MIN_ARC_WIDTH (a switch, placed by its impulse, may).
-        let old = mesh.interval_of(tau);
-        if errors[old] <= rs.tolerance {
-            continue;
-        }
-        let Some(j) = segs.iter().position(|s| tau > s.0 && tau < s.1) else {
-            continue;
-        };
-        let (lo, hi, n) = segs[j];
-        // An event break of the same kind (the same signal's switch, or an
-        // arc's end) at this interval's either end, not yet moved.
-        let near = |b: f64| {
-            event_breaks
-                .iter()
-                .enumerate()
-                .find(|&(k, e)| !moved[k] && kind(e, &event) && (e.tau - b).abs() < 1e-12)
-                .map(|(k, _)| k)
-        };
-        if let Some(k) = (j > 0).then(|| near(lo)).flatten() {
-            moved[k] = true;
-            segs[j - 1].1 = tau;
-            segs[j].0 = tau;
-        } else if let Some(k) = (j + 1 < segs.len()).then(|| near(hi)).flatten() {
-            moved[k] = true;
-            segs[j].1 = tau;
-            segs[j + 1].0 = tau;
-        } else {
-            let width = hi - lo;
-            if event.switch.is_none() && (tau - lo).min(hi - tau) < MIN_ARC_WIDTH {
-                continue;
-            }
-            let left = ((n as f64 * (tau - lo) / width).round() as usize).max(rs.min_points);
-            let right = ((n as f64 * (hi - tau) / width).round() as usize).max(rs.min_points);
-            segs.splice(j..=j, [(lo, tau, left), (tau, hi, right)]);
-        }
-        placed.push(event);
-    }
-    // Event breaks that no event claimed stay where they are.
-    placed.extend(
-        event_breaks
-            .iter()
-            .zip(&moved)
-            .filter(|&(_, &m)| !m)
-            .map(|(&b, _)| b),
-    );
+    let wish = pass.ph_wish(&claimed);
+    let grant = pass.grant(&wish, events);
+    let mut segs = pass.segments(&wish, &grant);
+    let placed = pass.place_events(events, &mut segs);
     let mut breaks_tau: Vec<f64> = segs.iter().map(|s| s.0).collect();
     breaks_tau.push(1.0);
     breaks_tau[0] = -1.0;
@@ -434,6 +302,197 @@ pub fn next_layout(
         },
         placed,
     )
+}
+
+/// Whether two events are of one kind: the same signal's switch, or both
+/// an arc's end.
+fn same_kind(a: &Event, b: &Event) -> bool {
+    a.switch.map(|s| s.0) == b.switch.map(|s| s.0)
+}
+
+/// (τ_lo, τ_hi, points) of an interval of the new mesh.
+type Segment = (f64, f64, usize);
+
+/// What [`next_layout`] builds the next mesh from: the mesh, its intervals'
+/// errors, the previous pass's event breaks and the settings.
+struct NextMesh<'a> {
+    mesh: &'a Mesh,
+    errors: &'a [f64],
+    event_breaks: &'a [Event],
+    rs: &'a RefinementSettings,
+}
+
+impl NextMesh<'_> {
+    /// Whether step 2 will place the event `ev` inside interval k (split
+    /// there, or move an event break at its end onto it): a switch always;
+    /// an arc's end if it leaves no interval narrower than MIN_ARC_WIDTH,
+    /// or if an event break of its kind ends the interval.
+    fn claims(&self, k: usize, ev: &Event) -> bool {
+        let iv = &self.mesh.intervals[k];
+        let inside = ev.tau > iv.tau_lo && ev.tau < iv.tau_hi;
+        let at_end = |b: f64| {
+            self.event_breaks
+                .iter()
+                .any(|e| same_kind(e, ev) && (e.tau - b).abs() < 1e-12)
+        };
+        inside
+            && self.errors[k] > self.rs.tolerance
+            && (ev.switch.is_some()
+                || (ev.tau - iv.tau_lo).min(iv.tau_hi - ev.tau) >= MIN_ARC_WIDTH
+                || at_end(iv.tau_lo)
+                || at_end(iv.tau_hi))
+    }
+
+    /// The ph rule's wish per interval: its new point count (a split past
+    /// `max_points`).
+    fn ph_wish(&self, claimed: &[bool]) -> Vec<usize> {
+        let rs = self.rs;
+        self.mesh
+            .intervals
+            .iter()
+            .zip(self.errors)
+            .enumerate()
+            .map(|(k, (iv, &e))| {
+                let n = iv.points;
+                // An interval with an event placed inside is split there
+                // (step 2), not raised or split evenly: its error is the
+                // event's. One whose events are too near its ends to place
+                // follows the ph rule (it stalled otherwise, its error
+                // never falling).
+                if e <= rs.tolerance || claimed[k] {
+                    return n;
+                }
+                let raise = ((e / rs.tolerance).ln() / (n.max(2) as f64).ln())
+                    .ceil()
+                    .max(1.0) as usize;
+                n + raise
+            })
+            .collect()
+    }
+
+    /// Which intervals get their wish: within the point budget (less what
+    /// the events' splits may take), the worst intervals first; the others
+    /// keep their points this pass.
+    fn grant(&self, wish: &[usize], events: &[Event]) -> Vec<bool> {
+        let (mesh, errors, rs) = (self.mesh, self.errors, self.rs);
+        let cost = |k: usize| {
+            let (n, want) = (mesh.intervals[k].points, wish[k]);
+            let after = if want <= rs.max_points {
+                want
+            } else {
+                want.div_ceil(rs.min_points).max(2) * rs.min_points
+            };
+            after.saturating_sub(n)
+        };
+        let reserve = (0..mesh.intervals.len())
+            .map(|k| events.iter().filter(|ev| self.claims(k, ev)).count())
+            .sum::<usize>()
+            * rs.min_points;
+        let mut budget = rs.max_total_points.saturating_sub(mesh.n + reserve);
+        let mut order: Vec<usize> = (0..wish.len()).collect();
+        order.sort_by(|&a, &b| errors[b].total_cmp(&errors[a]));
+        let mut grant = vec![false; wish.len()];
+        for k in order {
+            if errors[k] > rs.tolerance && cost(k) <= budget {
+                budget -= cost(k);
+                grant[k] = true;
+            }
+        }
+        grant
+    }
+
+    /// The intervals after step 1: a granted interval with its wish, raised
+    /// or split evenly into intervals of `min_points`; the others as they
+    /// are.
+    fn segments(&self, wish: &[usize], grant: &[bool]) -> Vec<Segment> {
+        let rs = self.rs;
+        let mut segs: Vec<Segment> = Vec::new();
+        for (k, iv) in self.mesh.intervals.iter().enumerate() {
+            let n = iv.points;
+            if !grant[k] {
+                segs.push((iv.tau_lo, iv.tau_hi, n));
+                continue;
+            }
+            let want = wish[k];
+            if want <= rs.max_points {
+                segs.push((iv.tau_lo, iv.tau_hi, want));
+            } else {
+                let b = want.div_ceil(rs.min_points).max(2);
+                let h = (iv.tau_hi - iv.tau_lo) / b as f64;
+                for j in 0..b {
+                    let hi = if j + 1 == b {
+                        iv.tau_hi
+                    } else {
+                        iv.tau_lo + h * (j + 1) as f64
+                    };
+                    segs.push((iv.tau_lo + h * j as f64, hi, rs.min_points));
+                }
+            }
+        }
+        segs
+    }
+
+    /// Step 2, the breaks at the events: each event in an interval still
+    /// above the tolerance moves an event break of its kind at an end of
+    /// its new interval onto it, or splits that interval there. Returns the
+    /// event breaks of the new mesh (those placed, then those that no event
+    /// claimed, where they are).
+    fn place_events(&self, events: &[Event], segs: &mut Vec<Segment>) -> Vec<Event> {
+        let (event_breaks, rs) = (self.event_breaks, self.rs);
+        let mut moved = vec![false; event_breaks.len()];
+        let mut placed = Vec::new();
+        for &event in events {
+            let tau = event.tau;
+            // Only where the old mesh is not yet accurate; and an arc's
+            // end, placed only to half a point spacing, never makes an
+            // interval narrower than MIN_ARC_WIDTH (a switch, placed by its
+            // impulse, may).
+            let old = self.mesh.interval_of(tau);
+            if self.errors[old] <= rs.tolerance {
+                continue;
+            }
+            let Some(j) = segs.iter().position(|s| tau > s.0 && tau < s.1) else {
+                continue;
+            };
+            let (lo, hi, n) = segs[j];
+            // An event break of the same kind (the same signal's switch, or
+            // an arc's end) at this interval's either end, not yet moved.
+            let near = |b: f64| {
+                event_breaks
+                    .iter()
+                    .enumerate()
+                    .find(|&(k, e)| !moved[k] && same_kind(e, &event) && (e.tau - b).abs() < 1e-12)
+                    .map(|(k, _)| k)
+            };
+            if let Some(k) = (j > 0).then(|| near(lo)).flatten() {
+                moved[k] = true;
+                segs[j - 1].1 = tau;
+                segs[j].0 = tau;
+            } else if let Some(k) = (j + 1 < segs.len()).then(|| near(hi)).flatten() {
+                moved[k] = true;
+                segs[j].1 = tau;
+                segs[j + 1].0 = tau;
+            } else {
+                let width = hi - lo;
+                if event.switch.is_none() && (tau - lo).min(hi - tau) < MIN_ARC_WIDTH {
+                    continue;
+                }
+                let left = ((n as f64 * (tau - lo) / width).round() as usize).max(rs.min_points);
+                let right = ((n as f64 * (hi - tau) / width).round() as usize).max(rs.min_points);
+                segs.splice(j..=j, [(lo, tau, left), (tau, hi, right)]);
+            }
+            placed.push(event);
+        }
+        // Event breaks that no event claimed stay where they are.
+        placed.extend(
+            event_breaks
+                .iter()
+                .zip(&moved)
+                .filter(|&(_, &m)| !m)
+                .map(|(&b, _)| b),
+        );
+        placed
+    }
 }
 
 #[cfg(test)]

@@ -20,7 +20,11 @@ pub const NX: usize = 8;
 /// Largest control dimension (the paper's formulation).
 pub const NU_MAX: usize = 4;
 
-/// State indices of the LCvx state vector.
+/// State indices: the one table of the crate's state vectors. The LCvx
+/// state is (x, z, Vx, Vz, θ, w, ω, δ); the physical state of the
+/// propagation and of the plant, and the states of the direct method's NLP
+/// ([`crate::method::direct::nlp::slot`]), are the same slots with m in
+/// ω's place.
 pub mod ix {
     pub const X: usize = 0;
     pub const Z: usize = 1;
@@ -28,7 +32,11 @@ pub mod ix {
     pub const VZ: usize = 3;
     pub const THETA: usize = 4;
     pub const W: usize = 5;
+    /// ω = ln m, in the LCvx state.
     pub const OMEGA: usize = 6;
+    /// The mass m \[kg\]: the same slot as [`OMEGA`], in the physical state
+    /// of the propagation, the plant and the NLP.
+    pub const M: usize = 6;
     pub const DELTA: usize = 7;
 }
 

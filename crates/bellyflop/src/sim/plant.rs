@@ -49,17 +49,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::input::error::InputError;
 use crate::input::scenario::{Scenario, TerminalState};
-use crate::problem::dynamics::{self, Model};
+use crate::problem::dynamics::{self, ix, Model};
 use crate::sim::check_range;
 use crate::sim::disturbance::Realization;
 use crate::sim::truth::{PlantState, TruthParams};
-
-/// Indices of the plant state vector (x, z, Vx, Vz, θ, w, m, δ).
-mod ix {
-    pub const Z: usize = 1;
-    pub const VZ: usize = 3;
-    pub const M: usize = 6;
-}
 
 /// An actuator command, held constant over one plant step: the controls
 /// (T, χ) of problem P2 (Eq. 8).

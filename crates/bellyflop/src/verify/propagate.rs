@@ -219,6 +219,15 @@ pub fn integrate_controls(
     c: &Controls,
     options: &Options,
 ) -> Result<Track, IntegrationError> {
+    check_nodes(c)?;
+    let pieces = segments(c)?;
+    let functions = ControlFunctions::new(model, c, options.interpolation, &pieces);
+    integrate_segments(model, c, options, &pieces, &functions)
+}
+
+/// The node data's own consistency: one control per node time, at least
+/// two node times, finite and strictly increasing.
+fn check_nodes(c: &Controls) -> Result<(), IntegrationError> {
     let m = c.t_s.len();
     if m < 2
         || [
@@ -238,74 +247,120 @@ pub fn integrate_controls(
             "node times must be finite and strictly increasing".into(),
         ));
     }
-    let kind = options.interpolation;
-    let delta = Interpolant::new(kind, c.t_s, c.delta_rad);
-    let nozzle = options.nozzle;
-    // Per interval (first node, node count + 1 with its end): T and χ, each
-    // held from the interval's last point to its end.
-    let pieces: Vec<(usize, usize)> = if c.interval_points.len() > 1 {
-        if c.interval_points.iter().sum::<usize>() + 1 != m || c.interval_points.contains(&0) {
-            return Err(IntegrationError::BadSolution(format!(
-                "the intervals' points must be positive and add up to the {} nodes less one",
-                m
-            )));
-        }
-        c.interval_points
-            .iter()
-            .scan(0, |start, &n| {
-                let piece = (*start, n);
-                *start += n;
-                Some(piece)
-            })
-            .collect()
-    } else {
-        vec![(0, m - 1)]
-    };
-    let held = |values: &[f64], start: usize, n: usize| -> Vec<f64> {
-        let mut v = values[start..=start + n].to_vec();
-        if pieces.len() > 1 {
-            v[n] = v[n - 1];
-        }
-        v
-    };
-    let controls: Vec<(Interpolant, Interpolant)> = pieces
+    Ok(())
+}
+
+/// The segments of the controls, one per mesh interval (or one through
+/// every node): each one's first node and its node count (its points; the
+/// segment ends at the node after them).
+fn segments(c: &Controls) -> Result<Vec<(usize, usize)>, IntegrationError> {
+    let m = c.t_s.len();
+    if c.interval_points.len() <= 1 {
+        return Ok(vec![(0, m - 1)]);
+    }
+    if c.interval_points.iter().sum::<usize>() + 1 != m || c.interval_points.contains(&0) {
+        return Err(IntegrationError::BadSolution(format!(
+            "the intervals' points must be positive and add up to the {} nodes less one",
+            m
+        )));
+    }
+    Ok(c.interval_points
         .iter()
-        .map(|&(start, n)| {
-            let t = &c.t_s[start..=start + n];
-            (
-                Interpolant::new(kind, t, &held(c.thrust_n, start, n)),
-                Interpolant::new(kind, t, &held(c.gimbal_rate_radps, start, n)),
-            )
+        .scan(0, |start, &n| {
+            let piece = (*start, n);
+            *start += n;
+            Some(piece)
         })
-        .collect();
-    // The collocation's polynomials of δ per piece (its node times and
-    // their barycentric weights), and the flyable profiles of T and χ.
-    let polys: Vec<PiecePolynomials> = if c.collocation {
-        pieces
+        .collect())
+}
+
+/// The controls of one re-propagation as functions of time, built once:
+/// δ through every node; T and χ per segment, each held from the segment's
+/// last point to its end; with [`Controls::collocation`], the collocation's
+/// polynomials of δ per segment and the flyable profiles of T and χ.
+struct ControlFunctions {
+    delta: Interpolant,
+    /// T and χ of each segment.
+    controls: Vec<(Interpolant, Interpolant)>,
+    /// The collocation's polynomial of δ on each segment (empty without
+    /// [`Controls::collocation`]).
+    polys: Vec<PiecePolynomials>,
+    /// The flyable profiles of T and χ (with [`Controls::collocation`]).
+    profiles: Option<(Profile, Profile)>,
+}
+
+impl ControlFunctions {
+    fn new(model: &Model, c: &Controls, kind: Interpolation, pieces: &[(usize, usize)]) -> Self {
+        let delta = Interpolant::new(kind, c.t_s, c.delta_rad);
+        let held = |values: &[f64], start: usize, n: usize| -> Vec<f64> {
+            let mut v = values[start..=start + n].to_vec();
+            if pieces.len() > 1 {
+                v[n] = v[n - 1];
+            }
+            v
+        };
+        let controls = pieces
             .iter()
             .map(|&(start, n)| {
-                let tn = c.t_s[start..=start + n].to_vec();
-                let bn = crate::collocation::radau::barycentric_weights(&tn);
-                (tn, bn)
+                let t = &c.t_s[start..=start + n];
+                (
+                    Interpolant::new(kind, t, &held(c.thrust_n, start, n)),
+                    Interpolant::new(kind, t, &held(c.gimbal_rate_radps, start, n)),
+                )
             })
-            .collect()
-    } else {
-        Vec::new()
-    };
-    let points: Vec<usize> = pieces.iter().map(|&(_, n)| n).collect();
-    let profiles = c.collocation.then(|| {
-        let r = model.max_gimbal_rate_radps;
-        (
-            Profile::new(
-                c.t_s,
-                &points,
-                c.thrust_n,
-                model.min_thrust_n,
-                model.max_thrust_n,
-            ),
-            Profile::new(c.t_s, &points, c.gimbal_rate_radps, -r, r),
-        )
-    });
+            .collect();
+        let polys = if c.collocation {
+            pieces
+                .iter()
+                .map(|&(start, n)| {
+                    let tn = c.t_s[start..=start + n].to_vec();
+                    let bn = crate::collocation::radau::barycentric_weights(&tn);
+                    (tn, bn)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let points: Vec<usize> = pieces.iter().map(|&(_, n)| n).collect();
+        let profiles = c.collocation.then(|| {
+            let r = model.max_gimbal_rate_radps;
+            (
+                Profile::new(
+                    c.t_s,
+                    &points,
+                    c.thrust_n,
+                    model.min_thrust_n,
+                    model.max_thrust_n,
+                ),
+                Profile::new(c.t_s, &points, c.gimbal_rate_radps, -r, r),
+            )
+        });
+        ControlFunctions {
+            delta,
+            controls,
+            polys,
+            profiles,
+        }
+    }
+}
+
+/// The integration loop: node interval by node interval, each split at the
+/// profiles' jumps inside it, from the initial state (and δ at t_0 for the
+/// nozzle-rate model), recording every accepted step.
+fn integrate_segments(
+    model: &Model,
+    c: &Controls,
+    options: &Options,
+    pieces: &[(usize, usize)],
+    functions: &ControlFunctions,
+) -> Result<Track, IntegrationError> {
+    let ControlFunctions {
+        delta,
+        controls,
+        polys,
+        profiles,
+    } = functions;
+    let nozzle = options.nozzle;
     let jumping: Vec<&Profile> = profiles.iter().flat_map(|(t, chi)| [t, chi]).collect();
     let mut stops = Vec::new();
     let piece_of: Vec<usize> = pieces
@@ -336,11 +391,11 @@ pub fn integrate_controls(
         let local = k - pieces[j].0;
         let (start, np) = pieces[j];
         let poly = polys.get(j);
-        let thrust_at = |t: f64| match &profiles {
+        let thrust_at = |t: f64| match profiles {
             Some((thrust, _)) => thrust.at(t),
             None => thrust.eval_on(local, t),
         };
-        let chi_at = |t: f64| match &profiles {
+        let chi_at = |t: f64| match profiles {
             Some((_, chi)) => chi.at(t),
             None => chi.eval_on(local, t),
         };

@@ -5,13 +5,15 @@
 use crate::input::settings::{DirectSettings, MuStrategy};
 use crate::method::direct::iterate::Iterate;
 use crate::method::direct::newton::Newton;
-use crate::method::direct::ADAPTIVE_WINDOW;
 
 // Constants of Wächter & Biegler (2006), Table 1 and §3, at IPOPT's defaults.
 const KAPPA_EPS: f64 = 10.0;
 const KAPPA_MU: f64 = 0.2;
 const THETA_MU: f64 = 1.5;
 const TAU_MIN: f64 = 0.99;
+/// Adaptive μ: iterations over which E_0 must fall by 0.01 %.
+pub const ADAPTIVE_WINDOW: usize = 4;
+
 /// Adaptive μ: the factor by which E_0 must fall over [`ADAPTIVE_WINDOW`]
 /// iterations.
 const ADAPTIVE_DECREASE: f64 = 0.9999;

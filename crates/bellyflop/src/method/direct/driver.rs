@@ -13,11 +13,43 @@ use crate::method::direct::inertia::InertiaCorrection;
 use crate::method::direct::iterate::{inf_norm, l1_norm, Iterate};
 use crate::method::direct::line_search::{FilterLineSearch, LineSearch};
 use crate::method::direct::newton::Newton;
-use crate::method::direct::nlp::Nlp;
+use crate::method::direct::nlp::{Duals, Nlp};
 use crate::method::direct::restoration::Restoration;
-use crate::method::direct::{NlpResult, Start, BOUND_PUSH, WARM_BOUND_PUSH};
 use crate::method::observer::{Iteration, Observer};
 use crate::solution::{DirectIteration, Status};
+
+/// Where a solve starts: a primal point, with the defect multipliers or
+/// without ([`solve_nlp`](super::solve_nlp)), or a primal–dual point
+/// ([`solve_nlp_warm`](super::solve_nlp_warm)).
+#[derive(Debug, Clone, Copy)]
+pub enum Start<'a> {
+    Primal(&'a [f64], Option<&'a [f64]>),
+    PrimalDual(&'a [f64], &'a Duals),
+}
+
+/// The answer of [`solve_nlp`](super::solve_nlp): the last iterate
+/// (scaled) and how it ended.
+#[derive(Debug, Clone)]
+pub struct NlpResult {
+    pub w: Vec<f64>,
+    pub lambda: Vec<f64>,
+    /// The bound multipliers of the last iterate.
+    pub zl: Vec<f64>,
+    pub zu: Vec<f64>,
+    pub status: Status,
+    pub message: String,
+    pub history: Vec<DirectIteration>,
+    /// Largest |defect| of `w` (scaled).
+    pub max_defect: f64,
+}
+
+/// The relative push of a start inside its bounds (§3.6).
+const BOUND_PUSH: f64 = 1e-2;
+/// The bound push of a primal–dual warm start
+/// ([`solve_nlp_warm`](super::solve_nlp_warm)): small, so that the controls
+/// on their bounds stay there (IPOPT's `warm_start_bound_push` plays this
+/// part).
+const WARM_BOUND_PUSH: f64 = 1e-8;
 
 /// How a solve ended, when it ended before its iteration limit.
 type Outcome = (Status, String);

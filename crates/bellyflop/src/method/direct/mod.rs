@@ -44,11 +44,13 @@ use std::time::Instant;
 use crate::input::settings::Method;
 use crate::input::settings::SolverSettings;
 pub use crate::input::settings::{DirectSettings, MuStrategy};
+pub use crate::method::direct::barrier::ADAPTIVE_WINDOW;
 use crate::method::direct::driver::Driver;
+pub use crate::method::direct::driver::{NlpResult, Start};
 use crate::method::direct::iterate::inf_norm;
-use crate::method::direct::kkt::KktMatrix;
+pub use crate::method::direct::newton::lagrangian_blocks;
 pub use crate::method::direct::nlp::Duals;
-use crate::method::direct::nlp::{Nlp, PointDerivatives, NL, NS};
+use crate::method::direct::nlp::{Nlp, NL, NS};
 use crate::method::observer::Observer;
 pub use crate::solution::DirectIteration;
 use crate::solution::Status;
@@ -56,30 +58,6 @@ use crate::solution::{History, SolveOutcome};
 
 /// μ_0 of the fine solve after a coarse start, and of warm starts.
 pub const WARM_MU: f64 = 1e-4;
-
-/// The answer of [`solve_nlp`]: the last iterate (scaled) and how it ended.
-#[derive(Debug, Clone)]
-pub struct NlpResult {
-    pub w: Vec<f64>,
-    pub lambda: Vec<f64>,
-    /// The bound multipliers of the last iterate.
-    pub zl: Vec<f64>,
-    pub zu: Vec<f64>,
-    pub status: Status,
-    pub message: String,
-    pub history: Vec<DirectIteration>,
-    /// Largest |defect| of `w` (scaled).
-    pub max_defect: f64,
-}
-
-/// The relative push of a start inside its bounds (§3.6).
-const BOUND_PUSH: f64 = 1e-2;
-/// The bound push of a primal–dual warm start ([`solve_nlp_warm`]): small,
-/// so that the controls on their bounds stay there (IPOPT's
-/// `warm_start_bound_push` plays this part).
-const WARM_BOUND_PUSH: f64 = 1e-8;
-/// Adaptive μ: iterations over which E_0 must fall by 0.01 %.
-pub const ADAPTIVE_WINDOW: usize = 4;
 
 /// Solve P2 from the scaled point `w0` (pushed inside its bounds).
 pub fn solve_nlp(
@@ -92,7 +70,7 @@ pub fn solve_nlp(
     Driver::new(nlp, settings).run(Start::Primal(w0, lambda0), observer)
 }
 
-/// Solve P2 from a primal–dual point: `w0` pushed only [`WARM_BOUND_PUSH`]
+/// Solve P2 from a primal–dual point: `w0` pushed only [`WARM_BOUND_PUSH`](driver::WARM_BOUND_PUSH)
 /// inside its bounds, the defect multipliers of `duals`, and each bound
 /// multiplier at least μ_0/s (s: the slack), so that no pair starts far
 /// below the barrier's complementarity. For the passes of mesh refinement,
@@ -106,45 +84,6 @@ pub fn solve_nlp_warm(
     observer: &mut dyn Observer,
 ) -> NlpResult {
     Driver::new(nlp, settings).run(Start::PrimalDual(w0, duals), observer)
-}
-
-/// The Hessian of the Lagrangian f + λᵀc and the Jacobian of c in the
-/// blocks of [`KktMatrix`] (no barrier, no regularization), from the
-/// point derivatives at `w` with multipliers `lambda`.
-pub fn lagrangian_blocks(
-    nlp: &Nlp,
-    w: &[f64],
-    lambda: &[f64],
-    derivs: &[PointDerivatives],
-    kkt: &mut KktMatrix,
-) {
-    let n = nlp.n;
-    let half_tf = 0.5 * nlp.tf_s(w);
-    let half_scale = 0.5 * nlp.tf_scale;
-    for k in 0..=n {
-        kkt.w[k] = [[0.0; NL]; NL];
-        kkt.h_t[k] = [0.0; NL];
-        if k == n {
-            continue;
-        }
-        let d = &derivs[k];
-        let l = &lambda[k * NS..(k + 1) * NS];
-        for r in 0..NL {
-            for c in 0..NL {
-                kkt.w[k][r][c] = -half_tf * d.hess[r][c];
-            }
-            kkt.h_t[k][r] = -half_scale * (0..NS).map(|q| l[q] * d.jac[q][r]).sum::<f64>();
-        }
-        for r in 0..NS {
-            for c in 0..NL {
-                kkt.b[k][r][c] = -half_tf * d.jac[r][c];
-            }
-            kkt.j_t[k][r] = -half_scale * d.f[r];
-        }
-    }
-    nlp.add_objective_hessian(w, &mut kkt.w);
-    kkt.h_tt = 0.0;
-    kkt.delta_c = 0.0;
 }
 
 /// Checks of a P2 answer against the nonlinear problem: its own defects,
@@ -292,14 +231,6 @@ pub fn solve_from(
     solve_from_start(settings, nlp, Start::Primal(w0, lambda0), observer).0
 }
 
-/// Where a solve starts: a primal point, with the defect multipliers or
-/// without ([`solve_nlp`]), or a primal–dual point ([`solve_nlp_warm`]).
-#[derive(Debug, Clone, Copy)]
-pub enum Start<'a> {
-    Primal(&'a [f64], Option<&'a [f64]>),
-    PrimalDual(&'a [f64], &'a Duals),
-}
-
 /// Solve from `start`, and report the answer as a [`crate::Solution`] with
 /// the multipliers of its last iterate.
 pub fn solve_from_start(
@@ -349,6 +280,7 @@ pub fn solve_from_start(
 mod tests {
     use super::*;
     use crate::input::scenario::Scenario;
+    use crate::method::direct::kkt::KktMatrix;
 
     /// ∇_w (f + λᵀc) of the transcription, from its point derivatives.
     fn lagrangian_gradient(nlp: &Nlp, w: &[f64], lambda: &[f64]) -> Vec<f64> {

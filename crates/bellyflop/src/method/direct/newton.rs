@@ -25,6 +25,45 @@ const DELTA_STATIC: f64 = 1e-9;
 /// Iterative refinement stops once the residual is this fraction of the right-hand side.
 const REFINE_TOL: f64 = 1e-12;
 
+/// The Hessian of the Lagrangian f + λᵀc and the Jacobian of c in the
+/// blocks of [`KktMatrix`] (no barrier, no regularization), from the
+/// point derivatives at `w` with multipliers `lambda`.
+pub fn lagrangian_blocks(
+    nlp: &Nlp,
+    w: &[f64],
+    lambda: &[f64],
+    derivs: &[PointDerivatives],
+    kkt: &mut KktMatrix,
+) {
+    let n = nlp.n;
+    let half_tf = 0.5 * nlp.tf_s(w);
+    let half_scale = 0.5 * nlp.tf_scale;
+    for k in 0..=n {
+        kkt.w[k] = [[0.0; NL]; NL];
+        kkt.h_t[k] = [0.0; NL];
+        if k == n {
+            continue;
+        }
+        let d = &derivs[k];
+        let l = &lambda[k * NS..(k + 1) * NS];
+        for r in 0..NL {
+            for c in 0..NL {
+                kkt.w[k][r][c] = -half_tf * d.hess[r][c];
+            }
+            kkt.h_t[k][r] = -half_scale * (0..NS).map(|q| l[q] * d.jac[q][r]).sum::<f64>();
+        }
+        for r in 0..NS {
+            for c in 0..NL {
+                kkt.b[k][r][c] = -half_tf * d.jac[r][c];
+            }
+            kkt.j_t[k][r] = -half_scale * d.f[r];
+        }
+    }
+    nlp.add_objective_hessian(w, &mut kkt.w);
+    kkt.h_tt = 0.0;
+    kkt.delta_c = 0.0;
+}
+
 /// Scratch of one solve.
 pub(super) struct Workspace {
     pub(super) kkt: KktMatrix,
@@ -167,7 +206,7 @@ impl<'a> Newton<'a> {
     /// regularization added at factorization.
     pub(super) fn build_kkt(&mut self, it: &Iterate) {
         let nlp = self.nlp;
-        super::lagrangian_blocks(nlp, &it.w, &it.lambda, &self.ws.derivs, &mut self.ws.kkt);
+        lagrangian_blocks(nlp, &it.w, &it.lambda, &self.ws.derivs, &mut self.ws.kkt);
         let b = &self.bounds;
         let sigma = |j: usize| {
             let mut s = 0.0;

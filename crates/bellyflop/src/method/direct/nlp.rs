@@ -36,16 +36,10 @@ pub const NC: usize = 4;
 /// Local slots per node: the states, then the controls.
 pub const NL: usize = NS + NC;
 
-/// Slot indices of a node's local vector.
+/// Slot indices of a node's local vector: the states, with the crate's
+/// state indices ([`crate::problem::dynamics::ix`]), then the controls.
 pub mod slot {
-    pub const X: usize = 0;
-    pub const Z: usize = 1;
-    pub const VX: usize = 2;
-    pub const VZ: usize = 3;
-    pub const THETA: usize = 4;
-    pub const W: usize = 5;
-    pub const M: usize = 6;
-    pub const DELTA: usize = 7;
+    pub use crate::problem::dynamics::ix::{DELTA, M, THETA, VX, VZ, W, X, Z};
     pub const T: usize = 8;
     pub const CHI: usize = 9;
     /// Thrust used above the soft margin's band, and below it: the thrust
