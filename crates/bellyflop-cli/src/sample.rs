@@ -228,4 +228,67 @@ mod tests {
         assert_eq!(seen, 11);
         assert!(d.t_s.windows(2).all(|w| w[0] < w[1]));
     }
+
+    /// The top-level keys of a JSON object's text, in the order written.
+    fn keys_in_order(text: &str) -> Vec<String> {
+        struct Keys;
+        impl<'de> serde::de::Visitor<'de> for Keys {
+            type Value = Vec<String>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a JSON object")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut map: A,
+            ) -> Result<Vec<String>, A::Error> {
+                let mut keys = Vec::new();
+                while let Some(k) = map.next_key::<String>()? {
+                    map.next_value::<serde::de::IgnoredAny>()?;
+                    keys.push(k);
+                }
+                Ok(keys)
+            }
+        }
+        use serde::Deserializer as _;
+        serde_json::Deserializer::from_str(text)
+            .deserialize_map(Keys)
+            .expect("a JSON object")
+    }
+
+    /// `COLUMNS` are the node arrays of the solution's JSON (the keys whose
+    /// values are N + 1 numbers), by name, in the `Solution`'s field order,
+    /// and each column of `Dense::nodes_of` is that array.
+    #[test]
+    fn columns_are_the_solutions_node_arrays() {
+        let s = solution(Scenario::paper().discretization.nodes);
+        let v = s.to_json();
+        let obj = v.as_object().expect("a JSON object");
+        let is_node_array = |v: &serde_json::Value| {
+            v.as_array()
+                .is_some_and(|a| a.len() == s.nodes + 1 && a.iter().all(|x| x.is_number()))
+        };
+        let order = keys_in_order(&serde_json::to_string(&s).expect("a Solution serializes"));
+        let node_arrays: Vec<&str> = order
+            .iter()
+            .map(String::as_str)
+            .filter(|k| obj.get(*k).is_some_and(is_node_array))
+            .collect();
+        assert_eq!(
+            obj.iter().filter(|(_, v)| is_node_array(v)).count(),
+            node_arrays.len(),
+            "every node array of to_json() is a field of the Solution"
+        );
+        let names: Vec<&str> = COLUMNS.iter().map(|(name, _)| *name).collect();
+        assert_eq!(names, node_arrays);
+        let d = Dense::nodes_of(&s);
+        for (name, col) in COLUMNS {
+            let json: Vec<f64> = obj[name]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect();
+            assert_eq!(col(&d), &json[..], "{name}");
+        }
+    }
 }

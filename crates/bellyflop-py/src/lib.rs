@@ -147,6 +147,94 @@ impl Section {
     }
 }
 
+/// The methods [`Scenario`] and [`SimConfig`] share, written once: the
+/// constructors from TOML and dicts, the TOML and dict views, attribute
+/// access, equality, pickling and `json`.
+///
+/// `$ty` is the pyclass (a frozen struct holding the validated core value in
+/// `inner`, of type `$inner`); `$what` names the value in the docstrings and
+/// `$dict` in the error of `from_dict` ("scenario dict: ..."). The methods
+/// of its own (the default constructor, `__repr__`) go in the braces.
+macro_rules! toml_input_methods {
+    ($ty:ident($inner:ty), what = $what:literal, dict = $dict:literal, { $($own:tt)* }) => {
+        #[pymethods]
+        impl $ty {
+            $($own)*
+
+            /// Parse and validate TOML: text (a str with a newline or `=`) or a
+            /// file path (str or os.PathLike).
+            #[staticmethod]
+            fn from_toml(path_or_text: &Bound<'_, PyAny>) -> PyResult<Self> {
+                match toml_source(path_or_text)? {
+                    TomlSource::Text(t) => Self::from_toml_text(&t),
+                    TomlSource::File(p) => Self::from_toml_file(p),
+                }
+            }
+
+            /// Parse and validate TOML text.
+            #[staticmethod]
+            fn from_toml_text(text: &str) -> PyResult<Self> {
+                <$inner>::from_toml_str(text)
+                    .map(|inner| $ty { inner })
+                    .map_err(input_error)
+            }
+
+            /// Read, parse and validate a TOML file.
+            #[staticmethod]
+            fn from_toml_file(path: std::path::PathBuf) -> PyResult<Self> {
+                <$inner>::from_file(&path)
+                    .map(|inner| $ty { inner })
+                    .map_err(input_error)
+            }
+
+            /// Build and validate from nested dicts with the TOML's tables and keys.
+            #[staticmethod]
+            fn from_dict(d: &Bound<'_, PyAny>) -> PyResult<Self> {
+                let inner: $inner = from_dict_value(d, $dict)?;
+                inner.validate().map_err(input_error)?;
+                Ok($ty { inner })
+            }
+
+            #[doc = concat!("The ", $what, " as TOML text (reads back to an equal ", $what, ").")]
+            fn to_toml(&self) -> PyResult<String> {
+                to_toml_text(&self.inner)
+            }
+
+            #[doc = concat!("The ", $what, " as nested dicts (the TOML's tables and keys).")]
+            fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+                json_to_py(py, &self.json()?, false)
+            }
+
+            fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+                attribute(py, &self.json()?, "", name)
+            }
+
+            fn __dir__(&self) -> PyResult<Vec<String>> {
+                Ok(keys(&self.json()?))
+            }
+
+            fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+                other
+                    .cast::<$ty>()
+                    .map(|o| o.get().inner == self.inner)
+                    .unwrap_or(false)
+            }
+
+            fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+                let ctor = py.get_type::<$ty>().getattr("from_toml_text")?;
+                Ok((ctor, (self.to_toml()?,)))
+            }
+        }
+
+        impl $ty {
+            /// The value as JSON (the attribute views and `to_dict`).
+            fn json(&self) -> PyResult<Value> {
+                to_json(&self.inner)
+            }
+        }
+    };
+}
+
 /// A landing problem: vehicle, environment, boundary states, mesh and
 /// solver settings, validated on construction.
 #[pyclass(module = "bellyflop._bellyflop", frozen)]
@@ -155,95 +243,29 @@ pub struct Scenario {
     inner: CoreScenario,
 }
 
-#[pymethods]
-impl Scenario {
-    /// The paper's case (`scenarios/paper.toml`).
-    #[staticmethod]
-    fn paper() -> Self {
-        Scenario {
-            inner: CoreScenario::paper(),
+toml_input_methods!(
+    Scenario(CoreScenario),
+    what = "scenario",
+    dict = "scenario",
+    {
+        /// The paper's case (`scenarios/paper.toml`).
+        #[staticmethod]
+        fn paper() -> Self {
+            Scenario {
+                inner: CoreScenario::paper(),
+            }
+        }
+
+        fn __repr__(&self) -> String {
+            format!(
+                "<bellyflop.Scenario {:?}, N = {}, {}>",
+                self.inner.scenario.name,
+                self.inner.scenario.discretization.nodes,
+                self.inner.solver.method.as_str()
+            )
         }
     }
-
-    /// Parse and validate TOML: text (a str with a newline or `=`) or a
-    /// file path (str or os.PathLike).
-    #[staticmethod]
-    fn from_toml(path_or_text: &Bound<'_, PyAny>) -> PyResult<Self> {
-        match toml_source(path_or_text)? {
-            TomlSource::Text(t) => Self::from_toml_text(&t),
-            TomlSource::File(p) => Self::from_toml_file(p),
-        }
-    }
-
-    /// Parse and validate TOML text.
-    #[staticmethod]
-    fn from_toml_text(text: &str) -> PyResult<Self> {
-        CoreScenario::from_toml_str(text)
-            .map(|inner| Scenario { inner })
-            .map_err(input_error)
-    }
-
-    /// Read, parse and validate a TOML file.
-    #[staticmethod]
-    fn from_toml_file(path: std::path::PathBuf) -> PyResult<Self> {
-        CoreScenario::from_file(&path)
-            .map(|inner| Scenario { inner })
-            .map_err(input_error)
-    }
-
-    /// Build and validate from nested dicts with the TOML's tables and keys.
-    #[staticmethod]
-    fn from_dict(d: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let inner: CoreScenario = from_dict_value(d, "scenario")?;
-        inner.validate().map_err(input_error)?;
-        Ok(Scenario { inner })
-    }
-
-    /// The scenario as TOML text (reads back to an equal scenario).
-    fn to_toml(&self) -> PyResult<String> {
-        to_toml_text(&self.inner)
-    }
-
-    /// The scenario as nested dicts (the TOML's tables and keys).
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        json_to_py(py, &self.json()?, false)
-    }
-
-    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
-        attribute(py, &self.json()?, "", name)
-    }
-
-    fn __dir__(&self) -> PyResult<Vec<String>> {
-        Ok(keys(&self.json()?))
-    }
-
-    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
-        other
-            .cast::<Scenario>()
-            .map(|o| o.get().inner == self.inner)
-            .unwrap_or(false)
-    }
-
-    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
-        let ctor = py.get_type::<Scenario>().getattr("from_toml_text")?;
-        Ok((ctor, (self.to_toml()?,)))
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "<bellyflop.Scenario {:?}, N = {}, {}>",
-            self.inner.scenario.name,
-            self.inner.scenario.discretization.nodes,
-            self.inner.solver.method.as_str()
-        )
-    }
-}
-
-impl Scenario {
-    fn json(&self) -> PyResult<Value> {
-        to_json(&self.inner)
-    }
-}
+);
 
 /// A value of `T` from nested dicts with its TOML tables and keys (not yet
 /// validated); `what` names it in the error.
@@ -274,85 +296,24 @@ pub struct SimConfig {
     inner: CoreSimConfig,
 }
 
-#[pymethods]
-impl SimConfig {
-    /// Every field at its default.
-    #[new]
-    fn new() -> Self {
-        SimConfig {
-            inner: CoreSimConfig::default(),
+toml_input_methods!(
+    SimConfig(CoreSimConfig),
+    what = "configuration",
+    dict = "config",
+    {
+        /// Every field at its default.
+        #[new]
+        fn new() -> Self {
+            SimConfig {
+                inner: CoreSimConfig::default(),
+            }
+        }
+
+        fn __repr__(&self) -> String {
+            "<bellyflop.SimConfig>".to_string()
         }
     }
-
-    /// Parse and validate TOML: text (a str with a newline or `=`) or a
-    /// file path (str or os.PathLike).
-    #[staticmethod]
-    fn from_toml(path_or_text: &Bound<'_, PyAny>) -> PyResult<Self> {
-        match toml_source(path_or_text)? {
-            TomlSource::Text(t) => Self::from_toml_text(&t),
-            TomlSource::File(p) => Self::from_toml_file(p),
-        }
-    }
-
-    #[staticmethod]
-    fn from_toml_text(text: &str) -> PyResult<Self> {
-        CoreSimConfig::from_toml_str(text)
-            .map(|inner| SimConfig { inner })
-            .map_err(input_error)
-    }
-
-    #[staticmethod]
-    fn from_toml_file(path: std::path::PathBuf) -> PyResult<Self> {
-        CoreSimConfig::from_file(&path)
-            .map(|inner| SimConfig { inner })
-            .map_err(input_error)
-    }
-
-    #[staticmethod]
-    fn from_dict(d: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let inner: CoreSimConfig = from_dict_value(d, "config")?;
-        inner.validate().map_err(input_error)?;
-        Ok(SimConfig { inner })
-    }
-
-    fn to_toml(&self) -> PyResult<String> {
-        to_toml_text(&self.inner)
-    }
-
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        json_to_py(py, &self.json()?, false)
-    }
-
-    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
-        attribute(py, &self.json()?, "", name)
-    }
-
-    fn __dir__(&self) -> PyResult<Vec<String>> {
-        Ok(keys(&self.json()?))
-    }
-
-    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
-        other
-            .cast::<SimConfig>()
-            .map(|o| o.get().inner == self.inner)
-            .unwrap_or(false)
-    }
-
-    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
-        let ctor = py.get_type::<SimConfig>().getattr("from_toml_text")?;
-        Ok((ctor, (self.to_toml()?,)))
-    }
-
-    fn __repr__(&self) -> String {
-        "<bellyflop.SimConfig>".to_string()
-    }
-}
-
-impl SimConfig {
-    fn json(&self) -> PyResult<Value> {
-        to_json(&self.inner)
-    }
-}
+);
 
 /// The answer of one solve: the object `bellyflop solve --json` prints.
 /// Every key is an attribute; node arrays are numpy float64 arrays.

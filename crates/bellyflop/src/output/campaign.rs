@@ -14,26 +14,49 @@ use crate::guidance::{end_state, Flight, ReplanOutcome, SimConfig};
 use crate::sim::{Outcome, RunOutcome, TouchdownLimits};
 use crate::{Case, InputError};
 
-/// The columns of runs.csv, in order.
-pub const RUNS_CSV_COLUMNS: [&str; 17] = [
-    "run",
-    "outcome",
-    "time_s",
-    "x_error_m",
-    "vertical_velocity_mps",
-    "horizontal_velocity_mps",
-    "speed_mps",
-    "pitch_error_deg",
-    "pitch_rate_degps",
-    "fuel_kg",
-    "replans",
-    "failed_replans",
-    "missed_replans",
-    "usable_replans",
-    "late_replans",
-    "max_replan_ms",
-    "first_plan_nominal",
+/// One column of runs.csv: its name and the writer of a row's field (with
+/// the field's `Display`, as in the CSV since the start).
+type RunsCsvColumn = (&'static str, fn(&RunRow, &mut String) -> std::fmt::Result);
+
+/// The column named after a field of [`RunRow`], written with `{}`.
+macro_rules! field {
+    ($name:ident) => {
+        (stringify!($name), |r, out| write!(out, "{}", r.$name))
+    };
+}
+
+/// runs.csv's columns, in order: the one definition [`RUNS_CSV_COLUMNS`] and
+/// [`runs_csv`] are read from.
+const RUNS_CSV: [RunsCsvColumn; 17] = [
+    field!(run),
+    ("outcome", |r, out| write!(out, "{}", r.outcome.as_str())),
+    field!(time_s),
+    field!(x_error_m),
+    field!(vertical_velocity_mps),
+    field!(horizontal_velocity_mps),
+    field!(speed_mps),
+    field!(pitch_error_deg),
+    field!(pitch_rate_degps),
+    field!(fuel_kg),
+    field!(replans),
+    field!(failed_replans),
+    field!(missed_replans),
+    field!(usable_replans),
+    field!(late_replans),
+    field!(max_replan_ms),
+    field!(first_plan_nominal),
 ];
+
+/// The columns of runs.csv, in order: the names of the table `RUNS_CSV`.
+pub const RUNS_CSV_COLUMNS: [&str; 17] = {
+    let mut names = [""; 17];
+    let mut i = 0;
+    while i < names.len() {
+        names[i] = RUNS_CSV[i].0;
+        i += 1;
+    }
+    names
+};
 
 /// Fly run `run` of the campaign `seed` (no trace recorded) and build its row.
 pub fn fly_row(case: &Case, config: &SimConfig, seed: u64, run: u64) -> Result<RunRow, InputError> {
@@ -205,27 +228,13 @@ pub fn runs_csv(rows: &[RunRow]) -> String {
     let mut csv = RUNS_CSV_COLUMNS.join(",");
     csv.push('\n');
     for r in rows {
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            r.run,
-            r.outcome.as_str(),
-            r.time_s,
-            r.x_error_m,
-            r.vertical_velocity_mps,
-            r.horizontal_velocity_mps,
-            r.speed_mps,
-            r.pitch_error_deg,
-            r.pitch_rate_degps,
-            r.fuel_kg,
-            r.replans,
-            r.failed_replans,
-            r.missed_replans,
-            r.usable_replans,
-            r.late_replans,
-            r.max_replan_ms,
-            r.first_plan_nominal
-        );
+        for (i, (_, field)) in RUNS_CSV.iter().enumerate() {
+            if i > 0 {
+                csv.push(',');
+            }
+            let _ = field(r, &mut csv);
+        }
+        csv.push('\n');
     }
     csv
 }

@@ -5,7 +5,7 @@
 use serde_json::{json, Value};
 
 use crate::collocation::interpolation::Interpolation;
-use crate::guidance::{Flight, SimConfig};
+use crate::guidance::{Flight, SimConfig, TraceSample};
 use crate::sim::RunOutcome;
 use crate::verify::ode::IntegrationError;
 use crate::verify::propagate::{self, Options, Propagation};
@@ -131,41 +131,40 @@ pub fn flight_json(
     })
 }
 
-/// The columns of flight.csv, in order.
-pub const TRACE_COLUMNS: [&str; 12] = [
-    "t_s",
-    "x_m",
-    "z_m",
-    "vx_mps",
-    "vz_mps",
-    "theta_rad",
-    "pitch_rate_radps",
-    "mass_kg",
-    "delta_rad",
-    "thrust_cmd_n",
-    "gimbal_rate_cmd_radps",
-    "wind_mps",
+/// One column of flight.csv: its name and the value of a plant step.
+type TraceColumn = (&'static str, fn(&TraceSample) -> f64);
+
+/// flight.csv's columns, in order: the one definition [`TRACE_COLUMNS`] and
+/// [`trace_columns`] are read from.
+const TRACE: [TraceColumn; 12] = [
+    ("t_s", |s| s.t_s),
+    ("x_m", |s| s.state.x_m),
+    ("z_m", |s| s.state.z_m),
+    ("vx_mps", |s| s.state.vx_mps),
+    ("vz_mps", |s| s.state.vz_mps),
+    ("theta_rad", |s| s.state.theta_rad),
+    ("pitch_rate_radps", |s| s.state.pitch_rate_radps),
+    ("mass_kg", |s| s.state.mass_kg),
+    ("delta_rad", |s| s.state.gimbal_rad),
+    ("thrust_cmd_n", |s| s.thrust_cmd_n),
+    ("gimbal_rate_cmd_radps", |s| s.gimbal_rate_cmd_radps),
+    ("wind_mps", |s| s.wind_mps),
 ];
+
+/// The columns of flight.csv, in order: the names of the table `TRACE`.
+pub const TRACE_COLUMNS: [&str; 12] = {
+    let mut names = [""; 12];
+    let mut i = 0;
+    while i < names.len() {
+        names[i] = TRACE[i].0;
+        i += 1;
+    }
+    names
+};
 
 /// The flown trace as columns ([`TRACE_COLUMNS`]): one value per plant step.
 pub fn trace_columns(f: &Flight) -> [Vec<f64>; 12] {
-    let col = |g: &dyn Fn(&crate::guidance::TraceSample) -> f64| {
-        f.trace.iter().map(g).collect::<Vec<f64>>()
-    };
-    [
-        col(&|s| s.t_s),
-        col(&|s| s.state.x_m),
-        col(&|s| s.state.z_m),
-        col(&|s| s.state.vx_mps),
-        col(&|s| s.state.vz_mps),
-        col(&|s| s.state.theta_rad),
-        col(&|s| s.state.pitch_rate_radps),
-        col(&|s| s.state.mass_kg),
-        col(&|s| s.state.gimbal_rad),
-        col(&|s| s.thrust_cmd_n),
-        col(&|s| s.gimbal_rate_cmd_radps),
-        col(&|s| s.wind_mps),
-    ]
+    TRACE.map(|(_, value)| f.trace.iter().map(value).collect())
 }
 
 /// The text of flight.csv: the header ([`TRACE_COLUMNS`]) and one line per
