@@ -479,6 +479,7 @@ fn parse_interpolation(s: &str) -> PyResult<Interpolation> {
 /// `--json` object as a Solution.
 #[pyfunction]
 #[pyo3(signature = (scenario, nodes=None, intervals=None, method=None, formulation=None, interpolation="pchip", mesh_tolerance=None))]
+#[allow(clippy::too_many_arguments)] // Python's keyword arguments, one each
 fn solve(
     py: Python<'_>,
     scenario: &Scenario,

@@ -70,7 +70,7 @@ pub fn solve_nlp(
     Driver::new(nlp, settings).run(Start::Primal(w0, lambda0), observer)
 }
 
-/// Solve P2 from a primal–dual point: `w0` pushed only [`WARM_BOUND_PUSH`](driver::WARM_BOUND_PUSH)
+/// Solve P2 from a primal–dual point: `w0` pushed only `WARM_BOUND_PUSH`
 /// inside its bounds, the defect multipliers of `duals`, and each bound
 /// multiplier at least μ_0/s (s: the slack), so that no pair starts far
 /// below the barrier's complementarity. For the passes of mesh refinement,

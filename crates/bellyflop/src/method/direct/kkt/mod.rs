@@ -13,7 +13,7 @@
 //! W (the Hessian of the Lagrangian plus the barrier terms) is block-diagonal
 //! per node, and J_y is D ⊗ I on the states plus one 8×12 block per
 //! collocation point. The positions x_1 … x_{N−1} and their defects are
-//! first eliminated exactly ([`XElimination`]: x is linear, with zero rows
+//! first eliminated exactly (`XElimination`: x is linear, with zero rows
 //! of W), leaving one row ν of their defects. Each block W_k (at most 12
 //! square, symmetric, possibly indefinite) is factored and inverted (an
 //! unpivoted LDLᵀ with a growth test, Bunch–Kaufman as fallback); the
@@ -27,7 +27,7 @@
 //! over the kept multipliers, ν and t̂_f (7N + 2 square, dense on the global
 //! mesh) is factored densely on the global mesh, and block by block over the
 //! intervals on an hp mesh, where it is block-tridiagonal with a border of
-//! two ([`banded`]). By Sylvester's law of inertia, In(K) =
+//! two (`banded`). By Sylvester's law of inertia, In(K) =
 //! Σ_k In(W_k) + In(R) + (N − 1, N − 1, 0) (the eliminated pairs): the
 //! factorization reports the inertia that the interior-point method checks
 //! (n positive and m negative eigenvalues for a descent direction), exactly
@@ -53,7 +53,7 @@
 //! storage; `dense` the dense factorizations (Bunch–Kaufman, the unpivoted
 //! LDLᵀ with its growth test, the node blocks' small inverse); `elimination`
 //! x's exact elimination; `factor` the node blocks and R; `solve` the
-//! structured solve; [`banded`] R on an hp mesh.
+//! structured solve; `banded` R on an hp mesh.
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
@@ -256,7 +256,7 @@ pub enum ReducedPath {
     /// Bunch–Kaufman LBLᵀ, when the unpivoted factorization meets a zero
     /// pivot or grows.
     BunchKaufman,
-    /// On an hp mesh: block by block over the intervals ([`banded`]), each
+    /// On an hp mesh: block by block over the intervals (`banded`), each
     /// block's unpivoted LDLᵀ within [`GROWTH_MAX`]; Bunch–Kaufman on the
     /// whole of R otherwise.
     Banded,
