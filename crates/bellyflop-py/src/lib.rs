@@ -199,6 +199,14 @@ impl Scenario {
         Ok(Scenario { inner })
     }
 
+    /// What reading it changed, one sentence each: a given guess outside
+    /// its range, clamped into it (as the CLI prints on stderr and in its
+    /// JSON's `warnings`); empty for the paper's case.
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.inner.warnings.clone()
+    }
+
     /// The scenario as TOML text (reads back to an equal scenario).
     fn to_toml(&self) -> PyResult<String> {
         to_toml_text(&self.inner)

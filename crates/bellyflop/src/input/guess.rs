@@ -93,7 +93,7 @@ pub fn derive(s: &Scenario) -> Guess {
         fall()
     };
     let tf = if tf.is_finite() { tf } else { TF_MAX_S };
-    let tf = tf.max(TF_MIN_S).min(TF_MAX_S);
+    let tf = tf.clamp(TF_MIN_S, TF_MAX_S);
     let mf = clamp_mass(m0 - flow * tf, m_dry, m0);
     Guess {
         tf_s: tf,
