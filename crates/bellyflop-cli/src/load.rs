@@ -16,6 +16,7 @@ pub fn case(args: &SolveArgs) -> Result<Case, bellyflop::InputError> {
         Some(path) => Case::from_file(path)?,
         None => Case::paper(),
     };
+    warn(&case);
     Overrides {
         nodes: args.nodes,
         intervals: args.intervals,
@@ -39,6 +40,7 @@ pub fn closed_loop(
         Some(p) => Case::from_file(p)?,
         None => Case::paper(),
     };
+    warn(&s);
     let mut c = match config {
         Some(p) => SimConfig::from_file(p)?,
         None => SimConfig::default(),
@@ -51,4 +53,13 @@ pub fn closed_loop(
     }
     c.validate()?;
     Ok((s, c))
+}
+
+/// The scenario's warnings (a guess clamped into its range), one
+/// `warning: ...` line each on stderr, whatever `--quiet` says: the answer is
+/// that of another file than the one given.
+fn warn(case: &Case) {
+    for w in &case.warnings {
+        eprintln!("warning: {w}");
+    }
 }

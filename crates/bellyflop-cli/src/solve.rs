@@ -13,6 +13,7 @@ pub fn run(args: SolveArgs) -> ExitCode {
     let Case {
         scenario,
         solver: settings,
+        warnings,
     } = match load::case(&args) {
         Ok(c) => c,
         Err(e) => {
@@ -36,6 +37,10 @@ pub fn run(args: SolveArgs) -> ExitCode {
     }
     landing::add_to_json(&mut v, &propagation);
     bellyflop::output::report::add_mesh_json(&mut v, &scenario, &solution);
+    // Only when there are any: the JSON of a file without warnings is unchanged.
+    if !warnings.is_empty() {
+        v["warnings"] = warnings.into();
+    }
     if args.json {
         println!("{v}");
     } else {

@@ -233,7 +233,13 @@ fn init_then_solve_reproduces_the_paper_case() {
     let text = std::fs::read_to_string(&file).unwrap();
     // Every parameter with its unit and range, e.g.:
     assert!(text.contains("isp_s = 330.0"), "{text}");
-    assert!(text.contains("# Unit: s. Allowed: (0, 1000]."), "{text}");
+    assert!(text.contains("# Unit: s. Allowed: (0, inf)."), "{text}");
+    // The two guesses are optional and written commented out (issue 29).
+    assert!(text.contains("\n# tf_guess_s = 12.0\n"), "{text}");
+    assert!(
+        text.contains("\n# final_mass_guess_kg = 110000.0\n"),
+        "{text}"
+    );
     assert!(text.contains("# Unit: kg/m. Allowed: [0, 1e5]."), "{text}");
     assert!(
         text.contains("# Allowed: an integer from 4 to 200."),
@@ -260,8 +266,12 @@ fn init_then_solve_reproduces_the_paper_case() {
     let (a, b) = (json_of(&from_file), json_of(&default));
     for key in ["tf_s", "final_mass_kg"] {
         let (x, y) = (a[key].as_f64().unwrap(), b[key].as_f64().unwrap());
-        assert!((x - y).abs() <= 1e-9, "{key}: {x} vs {y}");
+        assert!((x - y).abs() <= 1e-6, "{key}: {x} vs {y}");
     }
-    assert_eq!(a["iterations"], b["iterations"]);
+    // The file starts from the guesses derived from the state (11.0 s,
+    // 114.7 t), the paper's from its own (12 s, 110 t): the same optimum,
+    // reached in about as many iterations (29 against 28 when written).
+    let its = |v: &serde_json::Value| v["iterations"].as_i64().unwrap();
+    assert!((its(&a) - its(&b)).abs() <= 3, "{} vs {}", its(&a), its(&b));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -256,6 +256,14 @@ toml_input_methods!(
             }
         }
 
+        /// What reading it changed, one sentence each: a given guess outside
+        /// its range, clamped into it (as the CLI prints on stderr and in its
+        /// JSON's `warnings`); empty for the paper's case.
+        #[getter]
+        fn warnings(&self) -> Vec<String> {
+            self.inner.warnings.clone()
+        }
+
         fn __repr__(&self) -> String {
             format!(
                 "<bellyflop.Scenario {:?}, N = {}, {}>",

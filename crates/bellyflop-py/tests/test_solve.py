@@ -156,6 +156,26 @@ def test_other_bad_input():
         bellyflop.Scenario.from_toml("/no/such/file.toml")
 
 
+def test_guesses_are_optional_and_clamped_with_a_warning():
+    # Issue 29: left out, the guesses are derived from the state; given
+    # outside [m_dry, m0], the final mass is clamped into it with a warning.
+    assert bellyflop.Scenario.paper().warnings == []
+    d = bellyflop.Scenario.paper().to_dict()
+    d["initial"]["mass_kg"] = 105_000.0
+    clamped = bellyflop.Scenario.from_dict(d)
+    assert clamped.discretization.final_mass_guess_kg == 105_000.0
+    assert len(clamped.warnings) == 1
+    assert "final_mass_guess_kg = 110000" in clamped.warnings[0]
+    del d["discretization"]["tf_guess_s"], d["discretization"]["final_mass_guess_kg"]
+    derived = bellyflop.Scenario.from_dict(d)
+    assert derived.warnings == []
+    assert 85_000.0 < derived.discretization.final_mass_guess_kg < 105_000.0
+    assert 5.0 < derived.discretization.tf_guess_s < 20.0
+    d["discretization"]["final_mass_guess_kg"] = -1.0
+    with pytest.raises(bellyflop.InputError, match=r"discretization\.final_mass_guess_kg = -1"):
+        bellyflop.Scenario.from_dict(d)
+
+
 def test_certified_infeasible_is_a_status(cli, tmp_path):
     # From 100 m the descent cannot be stopped (README): a status, no exception.
     d = bellyflop.Scenario.paper().to_dict()

@@ -351,19 +351,11 @@ fn zero_isp_is_out_of_range() {
 
 #[test]
 fn other_contradictions_are_inconsistent() {
-    let cases: [(&str, &str, &str); 7] = [
+    // A final-mass guess outside [m_dry, m0] is no longer one of them: it is
+    // clamped (issue 29, `a_guess_outside_its_range_is_clamped_with_a_warning`).
+    let cases: [(&str, &str, &str); 5] = [
         ("cg_m = 20.0", "cg_m = 60.0", "vehicle.cg_m"),
         ("cp_m = 22.5", "cp_m = 51.0", "vehicle.cp_m"),
-        (
-            "final_mass_guess_kg = 110000.0",
-            "final_mass_guess_kg = 80000.0",
-            "discretization.final_mass_guess_kg",
-        ),
-        (
-            "final_mass_guess_kg = 110000.0",
-            "final_mass_guess_kg = 125000.0",
-            "discretization.final_mass_guess_kg",
-        ),
         (
             "gimbal_deg = 0.0",
             "gimbal_deg = -25.0",
@@ -464,8 +456,13 @@ fn every_numeric_field_rejects_non_finite_and_absurd_values() {
     for (section, key, idx) in &fields {
         let dotted = format!("{section}.{key}");
         let is_count = key == "nodes" || key == "max_iterations";
+        // A guess of 1e300 is a finite positive number outside its range:
+        // clamped with a warning, not rejected (issue 29).
+        let is_guess = key == "tf_guess_s" || key == "final_mass_guess_kg";
         let bad: &[&str] = if is_count {
             &["0", "1000000"]
+        } else if is_guess {
+            &["nan", "inf", "-inf", "-1e300"]
         } else {
             &["nan", "inf", "-inf", "1e300", "-1e300"]
         };
@@ -489,6 +486,47 @@ fn every_numeric_field_rejects_non_finite_and_absurd_values() {
             }
         }
     }
+}
+
+/// Issue 29: a guess outside its range is clamped into it with a warning
+/// naming the field, the value, the range and the value used; the same file
+/// with the guesses left out reads without warnings.
+#[test]
+fn a_guess_outside_its_range_is_clamped_with_a_warning() {
+    for (to, used) in [
+        ("final_mass_guess_kg = 80000.0", 85_000.0),
+        ("final_mass_guess_kg = 125000.0", 120_000.0),
+        ("final_mass_guess_kg = 1e300", 120_000.0),
+    ] {
+        let case = Case::from_toml_str(&paper_with("final_mass_guess_kg = 110000.0", to))
+            .unwrap_or_else(|e| panic!("{to}: {e}"));
+        assert_eq!(case.scenario.discretization.final_mass_guess_kg, used);
+        assert_eq!(case.warnings.len(), 1, "{to}");
+        let w = &case.warnings[0];
+        assert!(
+            w.starts_with("discretization.final_mass_guess_kg = ")
+                && w.contains("[vehicle.dry_mass_kg, initial.mass_kg] = [85000, 120000] kg")
+                && w.ends_with(&format!("clamped to {used} kg")),
+            "{w}"
+        );
+    }
+    let case = Case::from_toml_str(&paper_with("tf_guess_s = 12.0", "tf_guess_s = 1e300")).unwrap();
+    assert_eq!(case.scenario.discretization.tf_guess_s, 1000.0);
+    assert_eq!(case.warnings.len(), 1);
+    assert!(Case::paper().warnings.is_empty());
+    let bare: String = PAPER_TOML
+        .lines()
+        .filter(|l| !l.starts_with("tf_guess_s") && !l.starts_with("final_mass_guess_kg"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let case = Case::from_toml_str(&bare).expect("the guesses are optional");
+    assert!(case.warnings.is_empty());
+    let d = &case.scenario.discretization;
+    assert!((5.0..20.0).contains(&d.tf_guess_s), "{d:?}");
+    assert!(
+        (85_000.0..120_000.0).contains(&d.final_mass_guess_kg),
+        "{d:?}"
+    );
 }
 
 /// A gimbal limit that is 0 or subnormal in radians is bad input (issue 18:

@@ -35,6 +35,8 @@ class Scenario:
     terminal: Section
     discretization: Section
     solver: Section
+    warnings: List[str]
+    """What reading it changed: a guess given outside its range, clamped."""
     @staticmethod
     def paper() -> Scenario: ...
     @staticmethod

@@ -3,6 +3,7 @@
 //! validation, and the typed errors of bad input.
 
 pub mod error;
+pub mod guess;
 pub mod mesh_layout;
 pub mod overrides;
 pub mod scenario;

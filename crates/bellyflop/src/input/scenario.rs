@@ -120,9 +120,12 @@ pub struct Discretization {
     /// paper's global mesh; more intervals make each subproblem far cheaper.
     #[serde(default = "one")]
     pub intervals: usize,
-    /// Initial guess of the final time t_f \[s\].
+    /// Initial guess of the final time t_f \[s\]. Optional in a scenario
+    /// file: left out, it is derived from the state ([`crate::input::guess`]).
     pub tf_guess_s: f64,
     /// Initial guess of the final mass \[kg\] for the straight-line guess.
+    /// Optional in a scenario file, like `tf_guess_s`; a given one outside
+    /// [m_dry, m0] is clamped into it with a warning ([`Case::warnings`]).
     pub final_mass_guess_kg: f64,
     /// An explicit hp mesh (`[discretization.mesh]`: `breaks_tau`, `points`)
     /// in place of the uniform split of `nodes` over `intervals`. It does not
@@ -134,6 +137,23 @@ pub struct Discretization {
 
 fn one() -> usize {
     1
+}
+
+/// `[discretization]` as a scenario file holds it: the two guesses may be
+/// left out (resolved by [`crate::input::guess::resolve`] once the state is
+/// known).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DiscretizationFile {
+    nodes: usize,
+    #[serde(default = "one")]
+    intervals: usize,
+    #[serde(default)]
+    tf_guess_s: Option<f64>,
+    #[serde(default)]
+    final_mass_guess_kg: Option<f64>,
+    #[serde(default)]
+    mesh: Option<MeshLayout>,
 }
 
 /// A whole landing problem: the vehicle, its environment, the boundary
@@ -151,24 +171,37 @@ pub struct Scenario {
 }
 
 /// What a scenario file holds: the problem and, in its optional `[solver]`
-/// table, the settings to solve it with.
-#[derive(Debug, Clone, PartialEq)]
+/// table, the settings to solve it with. Two cases are equal when their
+/// problems and settings are: the warnings are remarks on how a file was
+/// read, and a clamped file written back reads without any.
+#[derive(Debug, Clone)]
 pub struct Case {
     pub scenario: Scenario,
     pub solver: SolverSettings,
+    /// What reading the file changed, one sentence each: a given guess
+    /// outside its range, clamped into it (issue 29). Empty for the paper's
+    /// file. The CLI prints them on stderr and in the JSON's `warnings`.
+    pub warnings: Vec<String>,
+}
+
+impl PartialEq for Case {
+    fn eq(&self, other: &Self) -> bool {
+        self.scenario == other.scenario && self.solver == other.solver
+    }
 }
 
 /// A scenario file's tables, for serde: [`Case`] with the problem's tables at
-/// the top level.
+/// the top level (`D`: the discretization as written, or as read with its
+/// optional guesses).
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct CaseFile {
+struct CaseFile<D> {
     name: String,
     vehicle: Vehicle,
     environment: Environment,
     initial: InitialState,
     terminal: TerminalState,
-    discretization: Discretization,
+    discretization: D,
     #[serde(default)]
     solver: SolverSettings,
 }
@@ -191,17 +224,28 @@ impl Serialize for Case {
 
 impl<'de> Deserialize<'de> for Case {
     fn deserialize<D: serde::Deserializer<'de>>(de: D) -> Result<Self, D::Error> {
-        let f = CaseFile::deserialize(de)?;
-        Ok(Case {
-            scenario: Scenario {
-                name: f.name,
-                vehicle: f.vehicle,
-                environment: f.environment,
-                initial: f.initial,
-                terminal: f.terminal,
-                discretization: f.discretization,
+        let f = CaseFile::<DiscretizationFile>::deserialize(de)?;
+        let d = f.discretization;
+        let mut scenario = Scenario {
+            name: f.name,
+            vehicle: f.vehicle,
+            environment: f.environment,
+            initial: f.initial,
+            terminal: f.terminal,
+            discretization: Discretization {
+                nodes: d.nodes,
+                intervals: d.intervals,
+                tf_guess_s: f64::NAN,
+                final_mass_guess_kg: f64::NAN,
+                mesh: d.mesh,
             },
+        };
+        let warnings =
+            crate::input::guess::resolve(&mut scenario, d.tf_guess_s, d.final_mass_guess_kg);
+        Ok(Case {
+            scenario,
             solver: f.solver,
+            warnings,
         })
     }
 }

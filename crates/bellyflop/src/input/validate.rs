@@ -172,7 +172,9 @@ const INTERVAL_POINTS: (usize, usize) = (2, 100);
 /// most 100 points.
 const MESH_WIDTH_MIN: f64 = 1e-6;
 /// Final-time guess t_f: positive, at most 1000 s (a landing burn lasts tens
-/// of seconds; the paper's is about 12 s).
+/// of seconds; the paper's is about 12 s). A scenario file's guess above
+/// 1000 s is clamped to it when read ([`crate::input::guess::resolve`]), so
+/// only a zero, negative or non-finite one reaches this check from a file.
 const TF_GUESS: Range = Range::open_closed(0.0, 1000.0, "s");
 
 // ---------------------------------------------------------------------------
@@ -617,7 +619,9 @@ fn solver_consistency(sv: &SolverSettings) -> Result<(), InputError> {
 /// first). Sources:
 /// - T_min ≤ T_max: the throttle interval of Eq. 5 must not be empty;
 /// - m_dry < m0: Eq. 4 requires the final mass above m_dry, and the vehicle
-///   must carry some propellant; the final-mass guess lies in [m_dry, m0];
+///   must carry some propellant; the final-mass guess lies in [m_dry, m0]
+///   (a scenario file's positive guess outside it is clamped into it when
+///   read, [`crate::input::guess::resolve`]);
 /// - l_cp ≤ l_s: measured along the body from the gimbal, it lies on the
 ///   body; l_cg within [`CG_FRACTION_MIN`]·l_s of either end (see there);
 /// - |δ(t0)| ≤ δ_max: the initial state must satisfy the gimbal bound;
