@@ -2,6 +2,7 @@
 //! states, discretization), the solver settings, their ranges and
 //! validation, and the typed errors of bad input.
 
+mod case_file;
 pub mod error;
 pub mod guess;
 pub mod mesh_layout;
