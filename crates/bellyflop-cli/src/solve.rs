@@ -4,7 +4,7 @@ use std::process::ExitCode;
 
 use bellyflop::method::observer::Iteration;
 use bellyflop::solution::{DirectIteration, IterationRecord};
-use bellyflop::{Case, Method, Scenario, Solution, SolverSettings};
+use bellyflop::{Case, Scenario, Solution, SolverSettings};
 
 use crate::args::SolveArgs;
 use crate::{exit, landing, load, output};
@@ -214,17 +214,13 @@ fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, t
                 .join("+")
         ),
     };
-    match s.method {
-        Method::Direct => println!(
-            "method        direct (interior point on P2), N = {}, {mesh}",
-            s.nodes
-        ),
-        Method::Scvx => println!(
-            "formulation   {}, N = {}, {mesh}",
-            s.formulation_label(settings.formulation),
-            s.nodes
-        ),
-    }
+    let names = s.method.names();
+    println!(
+        "method        {}, {} formulation, N = {}, {mesh}",
+        names.title,
+        s.formulation_label(settings.formulation),
+        s.nodes
+    );
     if let Some(r) = &s.refinement {
         let stop = r.stop.describe();
         let last = r.passes.last().map_or(f64::NAN, |p| p.max_relative_error);
@@ -239,16 +235,15 @@ fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, t
         "final mass    {:.1} kg (fuel {:.1} kg)",
         s.final_mass_kg, s.fuel_kg
     );
-    match s.method {
-        Method::Scvx => println!(
-            "iterations    {} SCvx, {} interior-point in all",
-            s.iterations,
-            s.history.scvx.iter().map(|h| h.ipm_iterations).sum::<u32>()
-        ),
-        Method::Direct => println!(
-            "iterations    {} interior-point (direct method)",
-            s.iterations
-        ),
+    // SCvx's iterations each solve a cone program by interior point.
+    let inner: u32 = s.history.scvx.iter().map(|h| h.ipm_iterations).sum();
+    if s.history.scvx.is_empty() {
+        println!("iterations    {} {}", s.iterations, names.iteration);
+    } else {
+        println!(
+            "iterations    {} {}, {inner} interior-point in all",
+            s.iterations, names.iteration
+        );
     }
     if times_ms.len() > 1 {
         println!(

@@ -43,9 +43,11 @@ pub(super) fn draw_convergence<DB: DrawingBackend>(
     d: &PlotData,
 ) -> Res<DB> {
     root.fill(&WHITE)?;
-    let (title, iterations, panels) = match d.solution.method {
-        bellyflop::Method::Scvx => scvx_panels(d),
-        bellyflop::Method::Direct => direct_panels(d),
+    // The panels are those of the history the solve recorded.
+    let (title, iterations, panels) = if d.solution.history.scvx.is_empty() {
+        direct_panels(d)
+    } else {
+        scvx_panels(d)
     };
     let root = root.titled(
         &format!("{title} — {}", d.title()),

@@ -75,18 +75,14 @@ impl<'a> PlotData<'a> {
     /// The method that ran, as the plots name it: in the title (SCvx with
     /// its formulation), and for its iterations.
     pub(super) fn method_names(&self) -> MethodNames {
-        match self.solution.method {
-            bellyflop::Method::Direct => MethodNames {
-                title: "direct method".to_string(),
-                iterations: "interior-point",
-            },
-            bellyflop::Method::Scvx => MethodNames {
-                title: format!(
-                    "SCvx, {} formulation",
-                    self.solution.formulation_label(self.settings.formulation)
-                ),
-                iterations: "SCvx",
-            },
+        let names = self.solution.method.names();
+        MethodNames {
+            title: format!(
+                "{}, {} formulation",
+                names.title,
+                self.solution.formulation_label(self.settings.formulation)
+            ),
+            iterations: names.iteration,
         }
     }
 

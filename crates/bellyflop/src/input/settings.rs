@@ -43,12 +43,40 @@ impl Method {
 
     /// The method's name in a scenario file and in the JSON.
     pub fn as_str(self) -> &'static str {
-        match self {
-            Method::Scvx => "scvx",
-            Method::Direct => "direct",
-        }
+        self.names().key
+    }
+
+    /// The method's row of [`METHOD_NAMES`].
+    pub fn names(self) -> &'static MethodNames {
+        &METHOD_NAMES[self as usize]
     }
 }
+
+/// What a method is called: in a scenario file and the JSON, and in the
+/// reports and plots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MethodNames {
+    /// The name in a scenario file and in the JSON (`method = "direct"`).
+    pub key: &'static str,
+    /// The name in a report's or a plot's title.
+    pub title: &'static str,
+    /// What one of its iterations is called ("28 SCvx iterations").
+    pub iteration: &'static str,
+}
+
+/// One row per method, in the order of the enum's variants (a test checks).
+pub const METHOD_NAMES: [MethodNames; 2] = [
+    MethodNames {
+        key: "scvx",
+        title: "SCvx",
+        iteration: "SCvx",
+    },
+    MethodNames {
+        key: "direct",
+        title: "direct method",
+        iteration: "interior-point",
+    },
+];
 
 impl std::str::FromStr for Method {
     type Err = String;
@@ -290,5 +318,22 @@ impl Default for DirectSettings {
             coarse_nodes: 10,
             coarse_tolerance: 1e-2,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each method's row of the names table is its own: the key is what
+    /// serde writes for it and what `FromStr` reads back.
+    #[test]
+    fn method_names_rows_follow_the_variants() {
+        for m in Method::ALL {
+            let json = serde_json::to_string(&m).unwrap();
+            assert_eq!(json, format!("\"{}\"", m.names().key));
+            assert_eq!(m.as_str().parse::<Method>(), Ok(m));
+        }
+        assert_eq!(Method::ALL.len(), METHOD_NAMES.len());
     }
 }
