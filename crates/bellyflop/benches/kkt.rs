@@ -20,9 +20,10 @@
 use std::hint::black_box;
 use std::time::Duration;
 
+use bellyflop::input::settings::DirectSettings;
 use bellyflop::method::direct::kkt::{KktMatrix, KktSolver};
 use bellyflop::method::direct::nlp::{Nlp, NL, NS};
-use bellyflop::method::direct::{self, lagrangian_blocks, DirectSettings};
+use bellyflop::method::direct::{self, lagrangian_blocks};
 use bellyflop::method::observer::Silent;
 use bellyflop::{Case, Method, Status};
 use clarabel::algebra::CscMatrix;

@@ -12,8 +12,9 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 
 use bellyflop::guidance::planner::{initial_state, Planner};
+use bellyflop::input::settings::DirectSettings;
+use bellyflop::method::direct;
 use bellyflop::method::direct::nlp::Nlp;
-use bellyflop::method::direct::{self, DirectSettings};
 use bellyflop::method::observer::Silent;
 use bellyflop::Case;
 

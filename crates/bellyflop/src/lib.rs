@@ -24,6 +24,10 @@
 //! - `fuzzing` (with the `fuzzing` feature, test tooling): the function the
 //!   fuzz target and the corpus replay run on raw scenario bytes, with the
 //!   invariants every answer must keep.
+//!
+//! The methods' internals (the direct method's `kkt` and `nlp`, SCvx's
+//! `conic` and `transcription`) are public for the benchmarks and tests that
+//! measure them, and hidden from these docs: they are not the API.
 pub mod collocation;
 #[cfg(feature = "fuzzing")]
 pub mod fuzzing;

@@ -5,8 +5,9 @@
 //! bound, from `bench/reference/nlp_reference.py --scenario F --nodes N
 //! --problem P2 --ground [--intervals M]` (tol 1e-9), measured on 2026-12-01.
 
+use bellyflop::input::settings::DirectSettings;
+use bellyflop::method::direct;
 use bellyflop::method::direct::nlp::Nlp;
-use bellyflop::method::direct::{self, DirectSettings};
 use bellyflop::method::observer::Silent;
 use bellyflop::{Case, Method, Solution, Status};
 
@@ -254,7 +255,9 @@ fn warm_start_from_the_answer_converges_in_a_few_iterations() {
 /// its iteration counts: no fewer than the monotone rule's on dispersed states).
 #[test]
 fn adaptive_barrier_rule_reaches_the_same_optimum() {
-    let sol = direct_paper(|s| s.solver.direct.mu_strategy = direct::MuStrategy::Adaptive);
+    let sol = direct_paper(|s| {
+        s.solver.direct.mu_strategy = bellyflop::input::settings::MuStrategy::Adaptive
+    });
     assert_reference(&sol, 114_569.455, 11.56895, "adaptive μ");
 }
 

@@ -565,7 +565,7 @@ fn smallest_gimbal_limits_assemble_and_solve_one_subproblem() {
     let tr = bellyflop::method::scvx::transcription::Transcription::new(&s.scenario, &s.solver);
     let guess = bellyflop::method::scvx::straight_line(&tr, 12.0, 110_000.0);
     let data = tr.assemble(&guess, 0.3, 0.0);
-    let mut conic = bellyflop::method::scvx::ConicSolver::new();
+    let mut conic = bellyflop::method::scvx::conic::ConicSolver::new();
     // Solved or not, it returns.
     let _ = tr.solve_with(&mut conic, &data);
 }

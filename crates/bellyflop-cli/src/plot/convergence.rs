@@ -105,8 +105,7 @@ fn scvx_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
 fn direct_panels(d: &PlotData) -> (&'static str, Iterations, [Convergence; 4]) {
     let tol = d.settings.direct.tolerance;
     let h = &d.solution.history.direct;
-    let values =
-        |f: fn(&bellyflop::method::direct::DirectIteration) -> f64| h.iter().map(f).collect();
+    let values = |f: fn(&bellyflop::solution::DirectIteration) -> f64| h.iter().map(f).collect();
     let iterations = Iterations {
         x: h.iter().map(|r| r.iteration as f64).collect(),
         accepted: h.iter().map(|r| !r.restoration).collect(),

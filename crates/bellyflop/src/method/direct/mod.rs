@@ -17,7 +17,7 @@
 //!   the infeasibility the problem is reported locally infeasible.
 //!
 //! The driver is [`solve_nlp`]; each iteration is reported to an
-//! [`Observer`] as a [`DirectIteration`].
+//! [`Observer`] as a [`DirectIteration`](crate::solution::DirectIteration).
 //!
 //! IPOPT's strategy objects, each owning its state: the iteration loop in
 //! `driver`; the iterate and its bounds in `iterate`; the Newton system and
@@ -32,27 +32,28 @@ mod barrier;
 mod driver;
 mod inertia;
 mod iterate;
+#[doc(hidden)] // internals, for the KKT benchmarks and tests; not the API
 pub mod kkt;
 mod line_search;
 mod newton;
+#[doc(hidden)] // internals, for the benchmarks and tests; not the API
 pub mod nlp;
 mod restoration;
 pub mod solver;
 
 use std::time::Instant;
 
+use crate::input::settings::DirectSettings;
 use crate::input::settings::Method;
 use crate::input::settings::SolverSettings;
-pub use crate::input::settings::{DirectSettings, MuStrategy};
 pub use crate::method::direct::barrier::ADAPTIVE_WINDOW;
 use crate::method::direct::driver::Driver;
 pub use crate::method::direct::driver::{NlpResult, Start};
 use crate::method::direct::iterate::inf_norm;
 pub use crate::method::direct::newton::lagrangian_blocks;
-pub use crate::method::direct::nlp::Duals;
+use crate::method::direct::nlp::Duals;
 use crate::method::direct::nlp::{Nlp, NL, NS};
 use crate::method::observer::Observer;
-pub use crate::solution::DirectIteration;
 use crate::solution::Status;
 use crate::solution::{History, SolveOutcome};
 

@@ -15,11 +15,13 @@
 use std::time::Instant;
 
 mod classify;
+#[doc(hidden)] // internals, for the benchmarks and tests; not the API
 pub mod conic;
 mod socp;
 pub mod solver;
 mod step;
 mod subproblem;
+#[doc(hidden)] // internals, for the benchmarks and tests; not the API
 pub mod transcription;
 mod trust_region;
 
@@ -35,7 +37,7 @@ use crate::problem::dynamics::{ix, NU_MAX, NX};
 use crate::solution::{History, IterationRecord, Solution, SolveOutcome, Status};
 use classify::Outcome;
 pub use classify::{COARSE_MESH_NODES, INFEASIBLE_VIRTUAL_CONTROL, THRUST_TOLERANCE_FRAC};
-pub use conic::ConicSolver;
+use conic::ConicSolver;
 pub use socp::{ConicData, SubproblemResult};
 use step::Reference;
 use trust_region::TrustRegion;
