@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::input::error::InputError;
+use crate::input::range::{check_all, count_in_range, Range};
 
 /// Guidance-loop settings. Missing fields take the defaults.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -201,104 +202,96 @@ impl Default for GuidanceConfig {
 impl GuidanceConfig {
     /// Ranges of every field; the error names the field, value and range.
     pub fn validate(&self) -> Result<(), InputError> {
-        let check = |field: &str, v: f64, lo: f64, hi: f64, open_lo: bool| {
-            crate::input::validate::in_range(
-                &format!("guidance.{field}"),
-                v,
-                lo,
-                hi,
-                open_lo,
-                false,
-                "",
-            )
-        };
-        check("replan_rate_hz", self.replan_rate_hz, 0.0, 100.0, true)?;
-        check("deadline_s", self.deadline_s, 0.0, 60.0, false)?;
-        check(
-            "replan_max_iterations",
-            self.replan_max_iterations as f64,
-            1.0,
-            1000.0,
-            false,
+        count_in_range(
+            "guidance.replan_max_iterations",
+            self.replan_max_iterations,
+            (1, 1000),
         )?;
-        crate::input::validate::count_in_range(
+        count_in_range(
             "guidance.replan_direct_max_iterations",
             self.replan_direct_max_iterations,
             (1, 1000),
         )?;
-        check(
-            "terminal_lateral_weight",
-            self.terminal_lateral_weight,
-            0.0,
-            1e12,
-            false,
-        )?;
-        crate::input::validate::count_in_range(
+        count_in_range(
             "guidance.replan_relaxed_iterations",
             self.replan_relaxed_iterations,
             (0, 1000),
         )?;
-        check(
-            "replan_proximal_weight",
-            self.replan_proximal_weight,
-            0.0,
-            1e6,
-            false,
-        )?;
-        check(
-            "stop_time_to_go_s",
-            self.stop_time_to_go_s,
-            0.0,
-            1000.0,
-            false,
-        )?;
-        check("stop_altitude_m", self.stop_altitude_m, 0.0, 1e4, false)?;
-        check(
-            "thrust_margin_frac",
-            self.thrust_margin_frac,
-            0.0,
-            0.3,
-            false,
-        )?;
-        check(
-            "thrust_margin_weight",
-            self.thrust_margin_weight,
-            0.0,
-            1e6,
-            true,
-        )?;
-        check(
-            "gimbal_margin_frac",
-            self.gimbal_margin_frac,
-            0.0,
-            0.5,
-            false,
-        )?;
-        check(
-            "position_filter_s",
-            self.position_filter_s,
-            0.0,
-            10.0,
-            false,
-        )?;
-        check(
-            "touchdown_speed_mps",
-            self.touchdown_speed_mps,
-            0.0,
-            3.0,
-            true,
-        )?;
-        check("flare_height_m", self.flare_height_m, 0.0, 10.0, false)?;
-        check("gate_height_m", self.gate_height_m, 0.0, 50.0, false)?;
-        check("gate_speed_mps", self.gate_speed_mps, 0.0, 10.0, false)?;
         if self.replan_nodes != 0 {
-            crate::input::validate::count_in_range(
-                "guidance.replan_nodes",
-                self.replan_nodes,
-                (4, 100),
-            )?;
+            count_in_range("guidance.replan_nodes", self.replan_nodes, (4, 100))?;
         }
-        Ok(())
+        check_all(&[
+            (
+                "guidance.replan_rate_hz",
+                self.replan_rate_hz,
+                Range::open_closed(0.0, 100.0, "Hz"),
+            ),
+            (
+                "guidance.deadline_s",
+                self.deadline_s,
+                Range::closed(0.0, 60.0, "s"),
+            ),
+            (
+                "guidance.terminal_lateral_weight",
+                self.terminal_lateral_weight,
+                Range::closed(0.0, 1e12, ""),
+            ),
+            (
+                "guidance.replan_proximal_weight",
+                self.replan_proximal_weight,
+                Range::closed(0.0, 1e6, ""),
+            ),
+            (
+                "guidance.stop_time_to_go_s",
+                self.stop_time_to_go_s,
+                Range::closed(0.0, 1000.0, "s"),
+            ),
+            (
+                "guidance.stop_altitude_m",
+                self.stop_altitude_m,
+                Range::closed(0.0, 1e4, "m"),
+            ),
+            (
+                "guidance.thrust_margin_frac",
+                self.thrust_margin_frac,
+                Range::closed(0.0, 0.3, ""),
+            ),
+            (
+                "guidance.thrust_margin_weight",
+                self.thrust_margin_weight,
+                Range::open_closed(0.0, 1e6, ""),
+            ),
+            (
+                "guidance.gimbal_margin_frac",
+                self.gimbal_margin_frac,
+                Range::closed(0.0, 0.5, ""),
+            ),
+            (
+                "guidance.position_filter_s",
+                self.position_filter_s,
+                Range::closed(0.0, 10.0, "s"),
+            ),
+            (
+                "guidance.touchdown_speed_mps",
+                self.touchdown_speed_mps,
+                Range::open_closed(0.0, 3.0, "m/s"),
+            ),
+            (
+                "guidance.flare_height_m",
+                self.flare_height_m,
+                Range::closed(0.0, 10.0, "m"),
+            ),
+            (
+                "guidance.gate_height_m",
+                self.gate_height_m,
+                Range::closed(0.0, 50.0, "m"),
+            ),
+            (
+                "guidance.gate_speed_mps",
+                self.gate_speed_mps,
+                Range::closed(0.0, 10.0, "m/s"),
+            ),
+        ])
     }
 
     /// The deadline actually applied \[s\].

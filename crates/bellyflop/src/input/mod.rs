@@ -7,6 +7,7 @@ pub mod error;
 pub mod guess;
 pub mod mesh_layout;
 pub mod overrides;
+pub(crate) mod range;
 pub mod scenario;
 pub mod settings;
 pub mod validate;

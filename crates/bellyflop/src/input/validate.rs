@@ -14,75 +14,11 @@
 //! Section 4) sits well inside every range.
 use crate::input::error::InputError;
 use crate::input::mesh_layout::MeshLayout;
+use crate::input::range::{check_all, count_in_range, in_range, Range};
 use crate::input::scenario::{
     Discretization, Environment, InitialState, Scenario, TerminalState, Vehicle,
 };
 use crate::input::settings::SolverSettings;
-
-/// An allowed interval for one floating-point field.
-#[derive(Debug, Clone, Copy)]
-struct Range {
-    lo: f64,
-    hi: f64,
-    lo_open: bool,
-    hi_open: bool,
-    unit: &'static str,
-}
-
-impl Range {
-    /// `(lo, hi]`
-    const fn open_closed(lo: f64, hi: f64, unit: &'static str) -> Self {
-        Self {
-            lo,
-            hi,
-            lo_open: true,
-            hi_open: false,
-            unit,
-        }
-    }
-    /// `[lo, hi]`
-    const fn closed(lo: f64, hi: f64, unit: &'static str) -> Self {
-        Self {
-            lo,
-            hi,
-            lo_open: false,
-            hi_open: false,
-            unit,
-        }
-    }
-    /// `(lo, hi)`
-    const fn open(lo: f64, hi: f64, unit: &'static str) -> Self {
-        Self {
-            lo,
-            hi,
-            lo_open: true,
-            hi_open: true,
-            unit,
-        }
-    }
-    /// `[lo, hi)`
-    const fn closed_open(lo: f64, hi: f64, unit: &'static str) -> Self {
-        Self {
-            lo,
-            hi,
-            lo_open: false,
-            hi_open: true,
-            unit,
-        }
-    }
-
-    fn check(&self, field: &str, value: f64) -> Result<(), InputError> {
-        in_range(
-            field,
-            value,
-            self.lo,
-            self.hi,
-            self.lo_open,
-            self.hi_open,
-            self.unit,
-        )
-    }
-}
 
 // ---------------------------------------------------------------------------
 // Vehicle (paper Table 1). Bounds cover anything from a small test hopper to
@@ -730,72 +666,6 @@ fn first_inconsistency<const N: usize>(
 /// 1.1 km below the pad.
 pub const CG_FRACTION_MIN: f64 = 0.091_751_709_536_136_98;
 
-/// Check a table of (field, value, range) rows in order; the first failure wins.
-fn check_all(rows: &[(&str, f64, Range)]) -> Result<(), InputError> {
-    rows.iter()
-        .try_for_each(|(field, value, range)| range.check(field, *value))
-}
-
-/// Check that a finite `value` lies between `lo` and `hi`, each end open or
-/// closed. NaN and ±inf are always out of range. The error names the field,
-/// the value and the range (shared by every validated input of the crate).
-pub(crate) fn in_range(
-    field: &str,
-    value: f64,
-    lo: f64,
-    hi: f64,
-    lo_open: bool,
-    hi_open: bool,
-    unit: &str,
-) -> Result<(), InputError> {
-    let above_lo = if lo_open { value > lo } else { value >= lo };
-    let below_hi = if hi_open { value < hi } else { value <= hi };
-    if value.is_finite() && above_lo && below_hi {
-        return Ok(());
-    }
-    let mut allowed = format!(
-        "{}{}, {}{}",
-        if lo_open { '(' } else { '[' },
-        fmt_bound(lo),
-        fmt_bound(hi),
-        if hi_open { ')' } else { ']' },
-    );
-    if !unit.is_empty() {
-        allowed.push(' ');
-        allowed.push_str(unit);
-    }
-    Err(InputError::OutOfRange {
-        field: field.into(),
-        value,
-        allowed,
-    })
-}
-
-/// Check an integer count against an inclusive range.
-pub(crate) fn count_in_range(
-    field: &str,
-    value: usize,
-    (lo, hi): (usize, usize),
-) -> Result<(), InputError> {
-    if (lo..=hi).contains(&value) {
-        return Ok(());
-    }
-    Err(InputError::OutOfRange {
-        field: field.into(),
-        value: value as f64,
-        allowed: format!("{lo} to {hi}"),
-    })
-}
-
-/// Print a range bound readably: `1e7` rather than `10000000`, `100` as is.
-fn fmt_bound(x: f64) -> String {
-    if x != 0.0 && (x.abs() >= 1e4 || x.abs() < 1e-3) {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
-    }
-}
-
 /// [`solver`] as a method.
 impl SolverSettings {
     /// Check every field against its allowed range.
@@ -815,6 +685,7 @@ impl Scenario {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::range::fmt_bound;
 
     #[test]
     fn bounds_print_readably() {

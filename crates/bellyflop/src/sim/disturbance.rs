@@ -60,8 +60,8 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::input::error::InputError;
+use crate::input::range::Range;
 use crate::input::scenario::InitialState;
-use crate::sim::check_range;
 use crate::sim::truth::{PlantState, TruthParams};
 
 /// Dispersions of a Monte-Carlo campaign. Missing fields take the defaults
@@ -231,15 +231,12 @@ impl Dispersions {
         ];
         for (name, value, hi, unit) in non_negative {
             let field = format!("dispersions.{name}");
-            check_range(&field, value, (0.0, false), (hi, false), unit)?;
+            Range::closed(0.0, hi, unit).check(&field, value)?;
         }
         // A divisor in a = exp(−Δt/τ): positive even when gusts are off.
-        check_range(
+        Range::open_closed(0.0, 1000.0, "s").check(
             "dispersions.gust_correlation_time_s",
             self.gust_correlation_time_s,
-            (0.0, true),
-            (1000.0, false),
-            "s",
         )
     }
 

@@ -38,8 +38,6 @@ pub use plant::{
 pub use truth::{PlantState, TruthParams};
 pub use verdict::{RunOutcome, TouchdownLimits};
 
-use crate::input::error::InputError;
-
 /// Run the plant in closed loop until it ends (touchdown, propellant
 /// exhausted, time limit or a non-finite state) and return how it ended.
 ///
@@ -68,21 +66,10 @@ pub fn run(
     }
 }
 
-/// Check that `value` is finite and lies in `lo..hi` with each end open or
-/// closed ([`crate::input::validate`]'s check, with the ends as pairs).
-fn check_range(
-    field: &str,
-    value: f64,
-    (lo, lo_open): (f64, bool),
-    (hi, hi_open): (f64, bool),
-    unit: &str,
-) -> Result<(), InputError> {
-    crate::input::validate::in_range(field, value, lo, hi, lo_open, hi_open, unit)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::range::Range;
     use crate::input::scenario::Scenario;
 
     #[test]
@@ -115,14 +102,14 @@ mod tests {
 
     #[test]
     fn range_errors_name_the_field() {
-        let err = check_range("a.b", -1.0, (0.0, false), (1.0, false), "m").unwrap_err();
+        let err = Range::closed(0.0, 1.0, "m").check("a.b", -1.0).unwrap_err();
         assert_eq!(
             err.to_string(),
             "a.b = -1 is out of range: allowed [0, 1] m"
         );
-        assert!(check_range("f", f64::NAN, (0.0, false), (1.0, false), "").is_err());
-        assert!(check_range("f", 0.0, (0.0, true), (1.0, false), "").is_err());
-        assert!(check_range("f", 1.0, (0.0, true), (1.0, true), "").is_err());
-        assert!(check_range("f", 0.5, (0.0, true), (1.0, true), "").is_ok());
+        assert!(Range::closed(0.0, 1.0, "").check("f", f64::NAN).is_err());
+        assert!(Range::open_closed(0.0, 1.0, "").check("f", 0.0).is_err());
+        assert!(Range::open(0.0, 1.0, "").check("f", 1.0).is_err());
+        assert!(Range::open(0.0, 1.0, "").check("f", 0.5).is_ok());
     }
 }

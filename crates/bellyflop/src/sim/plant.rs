@@ -48,9 +48,9 @@
 use serde::{Deserialize, Serialize};
 
 use crate::input::error::InputError;
+use crate::input::range::Range;
 use crate::input::scenario::{Scenario, TerminalState};
 use crate::problem::dynamics::{self, ix, Model};
-use crate::sim::check_range;
 use crate::sim::disturbance::Realization;
 use crate::sim::truth::{PlantState, TruthParams};
 
@@ -312,20 +312,8 @@ impl PlantConfig {
 
     /// Rate in (0, 10000] Hz, time limit in (0, 3600] s.
     pub fn validate(&self) -> Result<(), InputError> {
-        check_range(
-            "plant.rate_hz",
-            self.rate_hz,
-            (0.0, true),
-            (1e4, false),
-            "Hz",
-        )?;
-        check_range(
-            "plant.max_time_s",
-            self.max_time_s,
-            (0.0, true),
-            (3600.0, false),
-            "s",
-        )
+        Range::open_closed(0.0, 1e4, "Hz").check("plant.rate_hz", self.rate_hz)?;
+        Range::open_closed(0.0, 3600.0, "s").check("plant.max_time_s", self.max_time_s)
     }
 }
 

@@ -9,8 +9,8 @@
 use serde::Serialize;
 
 use crate::input::error::InputError;
+use crate::input::range::Range;
 use crate::input::scenario::InitialState;
-use crate::sim::check_range;
 
 /// The full plant state, SI units and radians.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -107,26 +107,13 @@ impl Default for TruthParams {
 impl TruthParams {
     /// Factors finite and non-negative, at most 10; |b| < 90°.
     pub fn validate(&self) -> Result<(), InputError> {
-        check_range(
-            "truth.c_ld_factor",
-            self.c_ld_factor,
-            (0.0, false),
-            (10.0, false),
-            "",
-        )?;
-        check_range(
-            "truth.thrust_factor",
-            self.thrust_factor,
-            (0.0, false),
-            (10.0, false),
-            "",
-        )?;
-        check_range(
-            "truth.gimbal_bias_rad",
-            self.gimbal_bias_rad,
-            (-std::f64::consts::FRAC_PI_2, true),
-            (std::f64::consts::FRAC_PI_2, true),
+        Range::closed(0.0, 10.0, "").check("truth.c_ld_factor", self.c_ld_factor)?;
+        Range::closed(0.0, 10.0, "").check("truth.thrust_factor", self.thrust_factor)?;
+        Range::open(
+            -std::f64::consts::FRAC_PI_2,
+            std::f64::consts::FRAC_PI_2,
             "rad",
         )
+        .check("truth.gimbal_bias_rad", self.gimbal_bias_rad)
     }
 }

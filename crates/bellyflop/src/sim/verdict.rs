@@ -5,7 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::input::error::InputError;
-use crate::sim::check_range;
+use crate::input::range::Range;
 use crate::sim::plant::{Outcome, Touchdown};
 
 /// How a run ended; the three touchdown classes, then the plant's other ends.
@@ -155,13 +155,7 @@ impl TouchdownLimits {
             ("crash_pitch_deg", self.crash_pitch_deg, 180.0, "deg"),
         ];
         for (key, value, hi, unit) in rows {
-            check_range(
-                &format!("touchdown.{key}"),
-                value,
-                (0.0, true),
-                (hi, false),
-                unit,
-            )?;
+            Range::open_closed(0.0, hi, unit).check(&format!("touchdown.{key}"), value)?;
         }
         let crash_speed = self
             .crash_vertical_speed_mps
