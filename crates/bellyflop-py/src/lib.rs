@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use bellyflop::collocation::interpolation::Interpolation;
 use bellyflop::guidance::SimConfig as CoreSimConfig;
-use bellyflop::output::campaign::{self, RunRow};
+use bellyflop::output::campaign::{self, Cell, Kind, RunRow};
 use bellyflop::sim::RunOutcome;
 // The Python `Scenario` is a whole scenario file: the problem and its
 // `[solver]` settings (bellyflop::Case).
@@ -595,60 +595,53 @@ fn campaign_chunk<'py>(
     PyList::new(py, tuples)
 }
 
+/// A run's row as a tuple: its runs.csv cells in order, then its re-plan
+/// times (the tuple a Dask task hands back).
 fn row_to_py<'py>(py: Python<'py>, r: &RunRow) -> PyResult<Bound<'py, PyTuple>> {
-    let items: Vec<Bound<'py, PyAny>> = vec![
-        r.run.into_bound_py_any(py)?,
-        r.outcome.as_str().into_bound_py_any(py)?,
-        r.time_s.into_bound_py_any(py)?,
-        r.x_error_m.into_bound_py_any(py)?,
-        r.vertical_velocity_mps.into_bound_py_any(py)?,
-        r.horizontal_velocity_mps.into_bound_py_any(py)?,
-        r.speed_mps.into_bound_py_any(py)?,
-        r.pitch_error_deg.into_bound_py_any(py)?,
-        r.pitch_rate_degps.into_bound_py_any(py)?,
-        r.fuel_kg.into_bound_py_any(py)?,
-        r.replans.into_bound_py_any(py)?,
-        r.failed_replans.into_bound_py_any(py)?,
-        r.missed_replans.into_bound_py_any(py)?,
-        r.usable_replans.into_bound_py_any(py)?,
-        r.late_replans.into_bound_py_any(py)?,
-        r.max_replan_ms.into_bound_py_any(py)?,
-        r.first_plan_nominal.into_bound_py_any(py)?,
-        r.replan_ms.clone().into_bound_py_any(py)?,
-    ];
+    let mut items = r
+        .cells()
+        .iter()
+        .map(|&c| cell_to_py(py, c))
+        .collect::<PyResult<Vec<_>>>()?;
+    items.push(r.replan_ms.clone().into_bound_py_any(py)?);
     PyTuple::new(py, items)
 }
 
+fn cell_to_py(py: Python<'_>, c: Cell) -> PyResult<Bound<'_, PyAny>> {
+    match c {
+        Cell::Count(n) => n.into_bound_py_any(py),
+        Cell::Number(x) => x.into_bound_py_any(py),
+        Cell::Flag(b) => b.into_bound_py_any(py),
+        Cell::Outcome(o) => o.as_str().into_bound_py_any(py),
+    }
+}
+
+/// The row of a tuple from [`row_to_py`].
 fn row_from_py(t: &Bound<'_, PyAny>, config: &CoreSimConfig) -> PyResult<RunRow> {
-    let g = |i: usize| t.get_item(i);
-    let f = |i: usize| -> PyResult<f64> { g(i)?.extract() };
-    let u = |i: usize| -> PyResult<usize> { g(i)?.extract() };
-    let name: String = g(1)?.extract()?;
-    let outcome = RunOutcome::ALL
-        .into_iter()
-        .find(|o| o.as_str() == name)
-        .ok_or_else(|| InputError::new_err(format!("outcome {name:?} is not an outcome")))?;
-    Ok(RunRow {
-        run: g(0)?.extract()?,
-        outcome,
-        time_s: f(2)?,
-        x_error_m: f(3)?,
-        vertical_velocity_mps: f(4)?,
-        horizontal_velocity_mps: f(5)?,
-        speed_mps: f(6)?,
-        pitch_error_deg: f(7)?,
-        pitch_rate_degps: f(8)?,
-        fuel_kg: f(9)?,
-        replans: u(10)?,
-        failed_replans: u(11)?,
-        missed_replans: u(12)?,
-        usable_replans: u(13)?,
-        late_replans: u(14)?,
-        max_replan_ms: f(15)?,
-        first_plan_nominal: g(16)?.extract()?,
-        replan_ms: g(17)?.extract()?,
-        limits: config.touchdown,
-    })
+    let cells = campaign::RUNS_CSV
+        .iter()
+        .enumerate()
+        .map(|(k, column)| {
+            let item = t.get_item(k)?;
+            Ok(match column.kind {
+                Kind::Count => Cell::Count(item.extract()?),
+                Kind::Number => Cell::Number(item.extract()?),
+                Kind::Flag => Cell::Flag(item.extract()?),
+                Kind::Outcome => {
+                    let name: String = item.extract()?;
+                    let outcome = RunOutcome::ALL
+                        .into_iter()
+                        .find(|o| o.as_str() == name)
+                        .ok_or_else(|| {
+                            InputError::new_err(format!("outcome {name:?} is not an outcome"))
+                        })?;
+                    Cell::Outcome(outcome)
+                }
+            })
+        })
+        .collect::<PyResult<Vec<Cell>>>()?;
+    let replan_ms = t.get_item(campaign::RUNS_CSV.len())?.extract()?;
+    RunRow::from_cells(&cells, replan_ms, config.touchdown).map_err(InputError::new_err)
 }
 
 /// The table of a campaign: runs.csv's columns, its text and the summary.
@@ -703,32 +696,29 @@ impl CampaignTable {
     /// `outcome` as a list of str.
     fn columns<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        let r = &self.rows;
-        let fl = |g: fn(&RunRow) -> f64| PyArray1::from_vec(py, r.iter().map(g).collect());
-        let int = |g: fn(&RunRow) -> i64| PyArray1::from_vec(py, r.iter().map(g).collect());
-        d.set_item("run", int(|r| r.run as i64))?;
-        d.set_item(
-            "outcome",
-            r.iter().map(|r| r.outcome.as_str()).collect::<Vec<_>>(),
-        )?;
-        d.set_item("time_s", fl(|r| r.time_s))?;
-        d.set_item("x_error_m", fl(|r| r.x_error_m))?;
-        d.set_item("vertical_velocity_mps", fl(|r| r.vertical_velocity_mps))?;
-        d.set_item("horizontal_velocity_mps", fl(|r| r.horizontal_velocity_mps))?;
-        d.set_item("speed_mps", fl(|r| r.speed_mps))?;
-        d.set_item("pitch_error_deg", fl(|r| r.pitch_error_deg))?;
-        d.set_item("pitch_rate_degps", fl(|r| r.pitch_rate_degps))?;
-        d.set_item("fuel_kg", fl(|r| r.fuel_kg))?;
-        d.set_item("replans", int(|r| r.replans as i64))?;
-        d.set_item("failed_replans", int(|r| r.failed_replans as i64))?;
-        d.set_item("missed_replans", int(|r| r.missed_replans as i64))?;
-        d.set_item("usable_replans", int(|r| r.usable_replans as i64))?;
-        d.set_item("late_replans", int(|r| r.late_replans as i64))?;
-        d.set_item("max_replan_ms", fl(|r| r.max_replan_ms))?;
-        d.set_item(
-            "first_plan_nominal",
-            PyArray1::from_vec(py, r.iter().map(|r| r.first_plan_nominal).collect()),
-        )?;
+        let rows: Vec<[Cell; 17]> = self.rows.iter().map(RunRow::cells).collect();
+        for (k, column) in campaign::RUNS_CSV.iter().enumerate() {
+            let cells = rows.iter().map(|r| r[k]);
+            let values = match column.kind {
+                Kind::Count => {
+                    let v = cells.map(|c| if let Cell::Count(n) = c { n as i64 } else { 0 });
+                    PyArray1::from_vec(py, v.collect()).into_any()
+                }
+                Kind::Number => {
+                    let v = cells.map(|c| if let Cell::Number(x) = c { x } else { f64::NAN });
+                    PyArray1::from_vec(py, v.collect()).into_any()
+                }
+                Kind::Flag => {
+                    let v = cells.map(|c| matches!(c, Cell::Flag(true)));
+                    PyArray1::from_vec(py, v.collect()).into_any()
+                }
+                Kind::Outcome => cells
+                    .map(|c| c.to_string())
+                    .collect::<Vec<_>>()
+                    .into_bound_py_any(py)?,
+            };
+            d.set_item(column.name, values)?;
+        }
         Ok(d)
     }
 

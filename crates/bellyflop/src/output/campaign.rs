@@ -14,45 +14,140 @@ use crate::guidance::{end_state, Flight, ReplanOutcome, SimConfig};
 use crate::sim::{Outcome, RunOutcome, TouchdownLimits};
 use crate::{Case, InputError};
 
-/// One column of runs.csv: its name and the writer of a row's field (with
-/// the field's `Display`, as in the CSV since the start).
-type RunsCsvColumn = (&'static str, fn(&RunRow, &mut String) -> std::fmt::Result);
+/// What a column of runs.csv holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// A count or an index (written as an integer).
+    Count,
+    /// A number, in full precision (NaN where there is none).
+    Number,
+    /// A yes/no (written `true`/`false`).
+    Flag,
+    /// How the run ended ([`RunOutcome::as_str`]).
+    Outcome,
+}
 
-/// The column named after a field of [`RunRow`], written with `{}`.
-macro_rules! field {
-    ($name:ident) => {
-        (stringify!($name), |r, out| write!(out, "{}", r.$name))
+/// One cell of a runs.csv row, typed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Cell {
+    Count(u64),
+    Number(f64),
+    Flag(bool),
+    Outcome(RunOutcome),
+}
+
+impl std::fmt::Display for Cell {
+    /// The cell as runs.csv writes it: the value's own `Display`, as in the
+    /// CSV since the start.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Cell::Count(n) => write!(f, "{n}"),
+            Cell::Number(x) => write!(f, "{x}"),
+            Cell::Flag(b) => write!(f, "{b}"),
+            Cell::Outcome(o) => f.write_str(o.as_str()),
+        }
+    }
+}
+
+/// One column of runs.csv: its name, what it holds, and how a row's field
+/// is read and written (`set` is false for a cell of another kind).
+#[derive(Clone, Copy)]
+pub struct Column {
+    pub name: &'static str,
+    pub kind: Kind,
+    pub get: fn(&RunRow) -> Cell,
+    pub set: fn(&mut RunRow, Cell) -> bool,
+}
+
+/// The column named after a field of [`RunRow`], of the given kind.
+macro_rules! column {
+    ($name:ident, Count) => {
+        Column {
+            name: stringify!($name),
+            kind: Kind::Count,
+            get: |r| Cell::Count(r.$name as u64),
+            set: |r, c| match c {
+                Cell::Count(n) => {
+                    r.$name = n as _;
+                    true
+                }
+                _ => false,
+            },
+        }
+    };
+    ($name:ident, Number) => {
+        Column {
+            name: stringify!($name),
+            kind: Kind::Number,
+            get: |r| Cell::Number(r.$name),
+            set: |r, c| match c {
+                Cell::Number(x) => {
+                    r.$name = x;
+                    true
+                }
+                _ => false,
+            },
+        }
+    };
+    ($name:ident, Flag) => {
+        Column {
+            name: stringify!($name),
+            kind: Kind::Flag,
+            get: |r| Cell::Flag(r.$name),
+            set: |r, c| match c {
+                Cell::Flag(b) => {
+                    r.$name = b;
+                    true
+                }
+                _ => false,
+            },
+        }
+    };
+    ($name:ident, Outcome) => {
+        Column {
+            name: stringify!($name),
+            kind: Kind::Outcome,
+            get: |r| Cell::Outcome(r.$name),
+            set: |r, c| match c {
+                Cell::Outcome(o) => {
+                    r.$name = o;
+                    true
+                }
+                _ => false,
+            },
+        }
     };
 }
 
-/// runs.csv's columns, in order: the one definition [`RUNS_CSV_COLUMNS`] and
-/// [`runs_csv`] are read from.
-const RUNS_CSV: [RunsCsvColumn; 17] = [
-    field!(run),
-    ("outcome", |r, out| write!(out, "{}", r.outcome.as_str())),
-    field!(time_s),
-    field!(x_error_m),
-    field!(vertical_velocity_mps),
-    field!(horizontal_velocity_mps),
-    field!(speed_mps),
-    field!(pitch_error_deg),
-    field!(pitch_rate_degps),
-    field!(fuel_kg),
-    field!(replans),
-    field!(failed_replans),
-    field!(missed_replans),
-    field!(usable_replans),
-    field!(late_replans),
-    field!(max_replan_ms),
-    field!(first_plan_nominal),
+/// runs.csv's columns, in order: the one definition that [`RUNS_CSV_COLUMNS`],
+/// [`runs_csv`], [`RunRow::cells`] and [`RunRow::from_cells`] (and the
+/// Python package's tables) are read from.
+pub const RUNS_CSV: [Column; 17] = [
+    column!(run, Count),
+    column!(outcome, Outcome),
+    column!(time_s, Number),
+    column!(x_error_m, Number),
+    column!(vertical_velocity_mps, Number),
+    column!(horizontal_velocity_mps, Number),
+    column!(speed_mps, Number),
+    column!(pitch_error_deg, Number),
+    column!(pitch_rate_degps, Number),
+    column!(fuel_kg, Number),
+    column!(replans, Count),
+    column!(failed_replans, Count),
+    column!(missed_replans, Count),
+    column!(usable_replans, Count),
+    column!(late_replans, Count),
+    column!(max_replan_ms, Number),
+    column!(first_plan_nominal, Flag),
 ];
 
-/// The columns of runs.csv, in order: the names of the table `RUNS_CSV`.
+/// The columns of runs.csv, in order: the names of the table [`RUNS_CSV`].
 pub const RUNS_CSV_COLUMNS: [&str; 17] = {
     let mut names = [""; 17];
     let mut i = 0;
     while i < names.len() {
-        names[i] = RUNS_CSV[i].0;
+        names[i] = RUNS_CSV[i].name;
         i += 1;
     }
     names
@@ -131,6 +226,54 @@ impl RunRow {
             replan_ms,
             limits: *limits,
         }
+    }
+
+    /// The row's cells, in [`RUNS_CSV`]'s order.
+    pub fn cells(&self) -> [Cell; 17] {
+        RUNS_CSV.map(|c| (c.get)(self))
+    }
+
+    /// The row whose runs.csv cells are `cells` (in [`RUNS_CSV`]'s order),
+    /// with its re-plan times and the limits it was judged by; an error
+    /// names the first column whose cell is missing or of another kind.
+    pub fn from_cells(
+        cells: &[Cell],
+        replan_ms: Vec<f64>,
+        limits: TouchdownLimits,
+    ) -> Result<RunRow, String> {
+        let mut row = RunRow {
+            run: 0,
+            outcome: RunOutcome::Landed,
+            time_s: f64::NAN,
+            x_error_m: f64::NAN,
+            vertical_velocity_mps: f64::NAN,
+            horizontal_velocity_mps: f64::NAN,
+            speed_mps: f64::NAN,
+            pitch_error_deg: f64::NAN,
+            pitch_rate_degps: f64::NAN,
+            fuel_kg: f64::NAN,
+            replans: 0,
+            failed_replans: 0,
+            missed_replans: 0,
+            usable_replans: 0,
+            late_replans: 0,
+            max_replan_ms: f64::NAN,
+            first_plan_nominal: false,
+            replan_ms,
+            limits,
+        };
+        for (k, column) in RUNS_CSV.iter().enumerate() {
+            let ok = cells.get(k).is_some_and(|&c| (column.set)(&mut row, c));
+            if !ok {
+                return Err(format!(
+                    "column {k} ({}): expected a {:?} cell, found {:?}",
+                    column.name,
+                    column.kind,
+                    cells.get(k)
+                ));
+            }
+        }
+        Ok(row)
     }
 
     /// The run ended on the ground (landed, hard landing or crash).
@@ -228,13 +371,59 @@ pub fn runs_csv(rows: &[RunRow]) -> String {
     let mut csv = RUNS_CSV_COLUMNS.join(",");
     csv.push('\n');
     for r in rows {
-        for (i, (_, field)) in RUNS_CSV.iter().enumerate() {
+        for (i, column) in RUNS_CSV.iter().enumerate() {
             if i > 0 {
                 csv.push(',');
             }
-            let _ = field(r, &mut csv);
+            let _ = write!(csv, "{}", (column.get)(r));
         }
         csv.push('\n');
     }
     csv
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row with a distinct value in every column.
+    fn sample_row() -> RunRow {
+        let cells: Vec<Cell> = RUNS_CSV
+            .iter()
+            .enumerate()
+            .map(|(k, c)| match c.kind {
+                Kind::Count => Cell::Count(k as u64 + 1),
+                Kind::Number => Cell::Number(k as f64 + 0.25),
+                Kind::Flag => Cell::Flag(k % 2 == 0),
+                Kind::Outcome => Cell::Outcome(RunOutcome::ALL[k % RunOutcome::ALL.len()]),
+            })
+            .collect();
+        RunRow::from_cells(&cells, vec![1.5, 2.5], TouchdownLimits::default()).unwrap()
+    }
+
+    #[test]
+    fn cells_round_trip_through_the_table() {
+        let row = sample_row();
+        let back = RunRow::from_cells(&row.cells(), row.replan_ms.clone(), row.limits).unwrap();
+        assert_eq!(back.cells(), row.cells());
+        // Each column reads its own field: the cells are all distinct.
+        let text: Vec<String> = row.cells().iter().map(|c| c.to_string()).collect();
+        for (k, t) in text.iter().enumerate() {
+            let kind = RUNS_CSV[k].kind;
+            if kind == Kind::Count || kind == Kind::Number {
+                assert_eq!(text.iter().filter(|u| *u == t).count(), 1, "{t}");
+            }
+        }
+        assert_eq!(runs_csv(&[row]).lines().nth(1).unwrap(), text.join(","));
+    }
+
+    #[test]
+    fn a_cell_of_the_wrong_kind_names_its_column() {
+        let mut cells = sample_row().cells();
+        cells[2] = Cell::Flag(true);
+        let err = RunRow::from_cells(&cells, vec![], TouchdownLimits::default()).unwrap_err();
+        assert!(err.contains("time_s"), "{err}");
+        let short = RunRow::from_cells(&cells[..1], vec![], TouchdownLimits::default());
+        assert!(short.unwrap_err().contains("outcome"));
+    }
 }
