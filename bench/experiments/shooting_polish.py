@@ -142,7 +142,7 @@ def collocation(sc, N, M, repeat=1):
     X, U, tf = nlp.unpack_physical(np.array(sol["x"]).ravel())
     return {"nlp": nlp, "X": X, "U": U, "tf": tf, "t": (nlp.tau_all + 1) * tf / 2,
             "status": st["return_status"], "success": bool(st["success"]),
-            "iters": int(st["iter_count"]), "ms": 1e3 * float(np.median(walls))}
+            "iters": int(st["iter_count"]), "ms": 1e3 * float(np.median(walls)), "intervals": M}
 
 
 # ----------------------------------------------------------------------------
@@ -265,10 +265,12 @@ def warm_start(sc, cheap, segs):
     """Node states from the cheap answer's state polynomial; coefficients fitted."""
     nlp, X, tf = cheap["nlp"], cheap["X"], cheap["tf"]
     tau = nlp.tau_all
-    polyX = BarycentricInterpolator(tau, X)
     edges = np.concatenate([[0.0], np.cumsum([s.dur for s in segs])])
     edges *= tf / edges[-1]
-    Xn = polyX(2 * edges / tf - 1)
+    if cheap.get("intervals", 1) == 1:
+        Xn = BarycentricInterpolator(tau, X)(2 * edges / tf - 1)
+    else:  # an hp mesh: piecewise linear through its nodes (no global polynomial)
+        Xn = np.array([[np.interp(2 * e / tf - 1, tau, X[:, c]) for c in range(X.shape[1])] for e in edges])
     # Controls: T at the collocation points (linear), chi as d(delta)/dt of the state polynomial.
     tc = cheap["t"][:-1]
     ss = np.linspace(0, 1, 12)
@@ -516,7 +518,7 @@ def reference_from(sc, segs, N=160, M=20):
 # ----------------------------------------------------------------------------
 def one(name, path, args):
     sc = R.load_scenario(str(path))
-    cheap = collocation(sc, 20, 1, repeat=args.repeat)
+    cheap = collocation(sc, args.cheap_nodes, args.cheap_intervals, repeat=args.repeat)
     ref = collocation(sc, 160, 20)
     X, U, tf = cheap["X"], cheap["U"], cheap["tf"]
     t = cheap["t"]
@@ -594,6 +596,10 @@ def main():
     ap.add_argument("--wide", default="", help="wide-box states, e.g. 0-4")
     ap.add_argument("--paper", action="store_true", help="also the paper's case")
     ap.add_argument("--seed", type=int, default=15)
+    ap.add_argument("--cheap-nodes", type=int, default=20,
+                    help="points of the collocation answer the structure is read from (default 20)")
+    ap.add_argument("--cheap-intervals", type=int, default=1,
+                    help="its intervals (default 1, the global mesh; 20 with 160 nodes: the reference itself)")
     ap.add_argument("--chi", choices=["poly", "structure"], default="structure")
     ap.add_argument("--thrust", choices=["poly", "structure"], default="structure")
     ap.add_argument("--h", type=float, default=0.05, help="RK4 step [s] (at the warm start's durations)")
