@@ -40,7 +40,7 @@ def out(tmp_path_factory):
     d = tmp_path_factory.mktemp("viewer")
     cli("solve", "--quiet", "--out", str(d / "solve"))
     cli("sim", "--json", "--out", str(d / "sim"))
-    cli("montecarlo", "--runs", "12", "--threads", "2", "--quiet", "--out", str(d / "campaign"))
+    cli("montecarlo", "--runs", "40", "--threads", "2", "--quiet", "--out", str(d / "campaign"))
     return d
 
 
@@ -189,6 +189,9 @@ def test_flight_viewer_follows_the_flown_trajectory(out, browser, shots):
     assert len(titles) == len(flight["replans"]) > 0
     for title, r in zip(titles, flight["replans"]):
         assert title.startswith("t = %.2f s: %s" % (r["time_s"], r["status"])), title
+    # Each re-plan's answer drawn in the scene, from its own start.
+    paths = browser.eval("document.querySelectorAll('#scene polyline.replan-path').length")
+    assert paths == sum(1 for r in flight["replans"] if r["status"] != "bad_state")
     verdict = browser.eval("document.getElementById('verdict').textContent")
     assert flight["outcome_name"] in verdict
     assert browser.errors() == []

@@ -370,6 +370,9 @@
     var paths = [{ x: show.plan.x_m, z: show.plan.z_m }];
     if (show.flown) { paths.push({ x: show.flown.x_m, z: show.flown.z_m }); }
     view.scene = new Scene(left, paths, sc.vehicle, 400);
+    (show.replanPaths || []).forEach(function (p) {
+      if (p.x_m.length) { view.scene.path('replan-path ' + p.outcome, p.x_m, p.z_m); }
+    });
     view.scene.path('plan', show.plan.x_m, show.plan.z_m);
     if (show.flown) { view.scene.path('flown', show.flown.x_m, show.flown.z_m); }
     (show.marks || []).forEach(function (m) {
@@ -391,7 +394,11 @@
   }
 
   function chartSpec(s, show, bounds) {
-    var key = s[0], series = [{ cls: 'plan', t: show.plan.t_s, y: show.plan[key] }];
+    var key = s[0], series = [];
+    (show.replanPaths || []).forEach(function (p) {
+      if (p[key] && p[key].length) { series.push({ cls: 'replan-path ' + p.outcome, t: p.t_s, y: p[key] }); }
+    });
+    series.push({ cls: 'plan', t: show.plan.t_s, y: show.plan[key] });
     if (show.flown && show.flown[key]) { series.push({ cls: 'flown', t: show.flown.t_s, y: show.flown[key] }); }
     var nodes = show.nodes && show.nodes[key] ? { t: show.nodes.t_s, y: show.nodes[key] } : null;
     var t0 = show.cols.t_s[0], t1 = show.cols.t_s[show.cols.t_s.length - 1];
@@ -448,14 +455,14 @@
     html('h1', {}, app, data.scenario.name + ': closed-loop flight, seed ' + f.seed + ', run ' + f.run + ': ' + f.outcome_name);
     var t0 = trace.t_s[0], t1 = trace.t_s[trace.t_s.length - 1];
     var marks = replanMarks(f.replans || []);
-    var show = { cols: trace, plan: trace, flown: plan, breaks: [], marks: marks, extraCharts: [
+    var show = { cols: trace, plan: trace, flown: plan, breaks: [], marks: marks, replanPaths: data.replan_paths, extraCharts: [
       { key: 'wind_mps', label: 'wind [m/s] (● re-plan estimate)', series: [{ cls: 'plan', t: trace.t_s, y: trace.wind_mps }],
         nodes: { t: marks.map(function (m) { return m.t; }), y: (f.replans || []).map(function (r) { return r.wind_estimate_mps; }) }, marks: marks },
       { key: 'solve_ms', label: 're-plan solve time [ms]', series: [],
         nodes: { t: marks.map(function (m) { return m.t; }), y: (f.replans || []).map(function (r) { return r.solve_ms; }) }, marks: marks }
     ] };
     var view = buildTimeView(app, data.scenario, show, t0, t1, [['#1f77b4', 'flown (plant, closed loop)'],
-      ['#ff7f0e', 'first plan'], ['#2ca02c', 're-plans (red: failed or missed)'], ['#d62728', 'bounds (thick: active)']]);
+      ['#ff7f0e', 'first plan'], ['#2ca02c', 're-plans: markers and their plans, thin (red: failed or missed)'], ['#d62728', 'bounds (thick: active)']]);
     verdict(view.side, f);
     replanTable(view.side, f.replans || []);
     return view;
@@ -538,7 +545,10 @@
     var b = new Scatter(layout, 'scatter-v', ['touchdown velocity', 'horizontal velocity [m/s] (|vertical| [m/s] up)'],
       symmetric(vx, lim.crash_horizontal_speed_mps), [0, 1.1 * Math.max(lim.crash_vertical_speed_mps, maxAbs(vz))]);
     b.box('survival', -lim.crash_horizontal_speed_mps, lim.crash_horizontal_speed_mps, 0, lim.crash_vertical_speed_mps);
-    el('circle', { class: 'spec', cx: b.fx(0), cy: b.fy(0), r: b.fx(lim.landed_speed_mps) - b.fx(0) }, b.svg);
+    // Speed at most the spec: the half disc above |vertical| = 0.
+    var cr = b.fx(lim.landed_speed_mps) - b.fx(0), cy = b.fy(0), cx = b.fx(0);
+    el('path', { class: 'spec', d: 'M' + (cx - cr) + ',' + cy + ' A' + cr + ',' + (b.fy(0) - b.fy(lim.landed_speed_mps)) +
+      ' 0 0 1 ' + (cx + cr) + ',' + cy + ' Z' }, b.svg);
     var side = html('div', { class: 'panel', id: 'run-panel' }, layout);
     html('div', {}, side, 'Click a run to see its row.');
     var view = { kind: 'campaign', rows: rows, idx: idx, dots: [], side: side, cmd: data.sim_command, cols: cols, scatters: [a, b] };

@@ -145,13 +145,27 @@ pub fn solve_data(
 }
 
 /// The data of a flight's page: `json` is the `sim --json` object; the
-/// flight must have its trace recorded.
+/// flight must have its trace recorded. Each re-plan's answer is drawn at
+/// its nodes (`replan_paths`, in the order of the JSON's `replans`).
 pub fn flight_data(scenario: &Scenario, flight: &Flight, json: &Value) -> Value {
     let trace = report::trace_columns(flight);
+    let replans: Vec<Value> = flight
+        .replans
+        .iter()
+        .map(|r| {
+            let p = &r.path;
+            json!({
+                "outcome": r.outcome,
+                "t_s": p.t_s, "x_m": p.x_m, "z_m": p.z_m,
+                "vx_mps": p.vx_mps, "vz_mps": p.vz_mps, "theta_rad": p.theta_rad,
+            })
+        })
+        .collect();
     json!({
         "kind": "flight",
         "scenario": scenario,
         "plan": plan_json(&flight.first_plan, &flight.first_plan.to_json()),
+        "replan_paths": replans,
         "flight": json,
         "trace": columns_json(&report::TRACE_COLUMNS, &trace),
     })
