@@ -124,6 +124,12 @@
   // Pose the vehicle: centre of mass at (x, z), pitch θ, nozzle δ, thrust T.
   Scene.prototype.pose = function (x, z, theta, delta, thrust) {
     var v = this.vehicle;
+    // A trajectory with no number here (a failed integration): no vehicle
+    // rather than an invalid transform.
+    var finite = [x, z, theta, delta].every(isFinite);
+    this.g.setAttribute('visibility', finite ? 'visible' : 'hidden');
+    if (!finite) { return; }
+    if (!isFinite(thrust)) { thrust = 0; }
     this.g.setAttribute('transform', 'translate(' + this.X(x) + ',' + this.Y(z) + ') rotate(' + (-theta * DEG) + ')');
     this.nozzle.setAttribute('transform', 'translate(0,' + this.bottom + ') rotate(' + (-delta * DEG) + ')');
     var len = 0.6 * v.length_m * this.s * Math.max(0, thrust / v.max_thrust_n);
