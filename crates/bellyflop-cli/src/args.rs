@@ -56,7 +56,8 @@ pub struct SolveArgs {
     /// Interpolation of the controls when re-propagating for the landing error.
     #[arg(long, value_enum, default_value = "pchip")]
     pub interpolation: landing::InterpolationArg,
-    /// Write trajectory.csv, solution.json and the plots (SVG and PNG) into DIR.
+    /// Write trajectory.csv, solution.json, the plots (SVG and PNG) and
+    /// viewer.html (the solve, to play in a browser) into DIR.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Solve R times in this process and report the median solve time (and

@@ -11,7 +11,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use bellyflop::output::campaign::{fly_row, runs_csv, summary, RunRow};
-use bellyflop::sim::RunOutcome;
+use bellyflop::sim::{RunOutcome, TouchdownLimits};
 use bellyflop::Case;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -47,8 +47,9 @@ pub struct MonteCarloArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
-    /// Write runs.csv, summary.json and the plots (touchdown scatter,
-    /// re-plan time histogram) into DIR.
+    /// Write runs.csv, summary.json, the plots (touchdown scatter,
+    /// re-plan time histogram) and viewer.html (the scatter to click
+    /// through, with the command that flies a run again) into DIR.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
 }
@@ -128,7 +129,13 @@ pub fn run(args: &MonteCarloArgs) -> ExitCode {
         print_summary(&s);
     }
     if let Some(dir) = &args.out {
-        if let Err(code) = output::report(dir, write(dir, &rows, &s, &scenario), args.json) {
+        let sim = sim_command(args);
+        let limits = &config.touchdown;
+        if let Err(code) = output::report(
+            dir,
+            write(dir, &rows, &s, &scenario, limits, &sim),
+            args.json,
+        ) {
             return code;
         }
     }
@@ -200,11 +207,42 @@ fn print_summary(s: &Value) {
     );
 }
 
+/// A path as one shell word: as is when it holds only safe characters,
+/// else in single quotes.
+fn shell_word(p: &std::path::Path) -> String {
+    let s = p.display().to_string();
+    let safe = |c: char| c.is_ascii_alphanumeric() || "/._-+=:,".contains(c);
+    if !s.is_empty() && s.chars().all(safe) {
+        s
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+/// The `bellyflop sim` command that flies a run of this campaign again,
+/// without its `--run K` (the viewer adds it).
+fn sim_command(args: &MonteCarloArgs) -> String {
+    let mut cmd = String::from("bellyflop sim");
+    if let Some(p) = &args.scenario {
+        cmd.push_str(&format!(" --scenario {}", shell_word(p)));
+    }
+    if let Some(p) = &args.config {
+        cmd.push_str(&format!(" --config {}", shell_word(p)));
+    }
+    cmd.push_str(&format!(" --seed {}", args.seed));
+    if args.open_loop {
+        cmd.push_str(" --open-loop");
+    }
+    cmd
+}
+
 fn write(
     dir: &std::path::Path,
     rows: &[RunRow],
     s: &Value,
     case: &Case,
+    limits: &TouchdownLimits,
+    sim: &str,
 ) -> Result<Vec<PathBuf>, OutputError> {
     let mut files = Vec::new();
     let csv = runs_csv(rows);
@@ -215,5 +253,7 @@ fn write(
     std::fs::write(&path, format!("{s}\n")).map_err(|e| OutputError::io(&path, e))?;
     files.push(path);
     files.extend(plot::campaign(dir, rows, &case.scenario.name)?);
+    let data = bellyflop::output::viewer::campaign_data(rows, s, limits, sim);
+    files.push(output::write_viewer(dir, &data)?);
     Ok(files)
 }

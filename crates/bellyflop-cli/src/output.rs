@@ -1,9 +1,10 @@
-//! `solve --out DIR`: the trajectory as CSV, the solution as JSON, and the plots.
+//! `solve --out DIR`: the trajectory as CSV, the solution as JSON, the plots
+//! and the interactive viewer (`viewer.html`).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use bellyflop::collocation::interpolation::Interpolant;
+use bellyflop::output::viewer;
 use bellyflop::verify::propagate::Propagation;
 use bellyflop::{Scenario, Solution, SolverSettings};
 
@@ -29,11 +30,22 @@ pub fn write_and_report(
     quiet: bool,
 ) -> Result<(), std::process::ExitCode> {
     let over = propagation.map(|p| overlay(solution, p));
-    report(
-        dir,
-        write_all(dir, scenario, settings, solution, json, over.as_ref()),
-        quiet,
-    )
+    let written =
+        write_all(dir, scenario, settings, solution, json, over.as_ref()).and_then(|mut files| {
+            let data = viewer::solve_data(scenario, solution, json, propagation);
+            files.push(write_viewer(dir, &data)?);
+            Ok(files)
+        });
+    report(dir, written, quiet)
+}
+
+/// Write `viewer.html` (the page of [`bellyflop::output::viewer`]) for
+/// `data` into `dir`, and return its path.
+pub fn write_viewer(dir: &Path, data: &serde_json::Value) -> Result<PathBuf, OutputError> {
+    let path = dir.join("viewer.html");
+    let page = viewer::html(&data.to_string()).map_err(|e| OutputError::io(&path, e))?;
+    std::fs::write(&path, page).map_err(|e| OutputError::io(&path, e))?;
+    Ok(path)
 }
 
 /// After writing into `dir`: list the files on stderr (unless `quiet`), or
@@ -77,24 +89,7 @@ pub fn prepare_or_exit(dir: &Option<PathBuf>) -> Result<(), std::process::ExitCo
 /// path and time-history plots, sampled at the integrator's accepted steps.
 /// Its thrust and gimbal rate are the interpolants the integration used.
 pub fn overlay(solution: &Solution, p: &Propagation) -> Dense {
-    let state = |c: usize| p.states.iter().map(|s| s[c]).collect::<Vec<f64>>();
-    let along = |values: &[f64]| {
-        let f = Interpolant::new(p.options.interpolation, &solution.t_s, values);
-        p.t_s.iter().map(|&t| f.eval(t)).collect::<Vec<f64>>()
-    };
-    Dense::from_columns([
-        p.t_s.clone(),
-        state(0),
-        state(1),
-        state(2),
-        state(3),
-        state(4),
-        state(5),
-        state(6),
-        p.delta_rad.clone(),
-        along(&solution.thrust_n),
-        along(&solution.gimbal_rate_radps),
-    ])
+    Dense::from_columns(viewer::propagation_columns(solution, p))
 }
 
 /// Create the output directory (and its parents) if needed.

@@ -1,15 +1,7 @@
-//! Dense sampling of a solution from its LGR interpolants.
-//!
-//! The states are the degree-N Lagrange polynomials through the N + 1 LGR
-//! nodes (`Mesh::interpolate_states`, piecewise on an hp mesh); the controls are the degree-(N − 1)
-//! polynomials through the N collocation points (`Mesh::interpolate_controls`).
-//! The controls are not collocated on (τ_N, 1]; there they hold the value of
-//! the last collocation point, as the `Solution` arrays do at t_f (the
-//! extrapolated polynomial can overshoot the thrust bounds). Between nodes these
-//! polynomials are what the collocation method represents; only the node
-//! values are optimized.
+//! Dense sampling of a solution from its LGR interpolants, as the plots and
+//! trajectory.csv draw it: [`bellyflop::output::samples`], kept as columns
+//! with the node markers.
 
-use bellyflop::problem::dynamics::{self, ix};
 use bellyflop::Solution;
 
 /// A trajectory sampled in time, in SI units and radians.
@@ -60,79 +52,14 @@ impl Dense {
     }
 
     /// Sample the solution's interpolants: `per_interval` samples on each of
-    /// the N intervals between consecutive LGR nodes, plus the final node, so
-    /// N·`per_interval` + 1 samples that include every node exactly.
-    ///
-    /// At a node the states are the node values of the solution bit for bit
-    /// (the barycentric formula returns them as is); the thrust is σ·m with σ
-    /// from the control polynomial, equal to the node value to rounding.
+    /// the N intervals between consecutive LGR nodes, plus the final node
+    /// ([`bellyflop::output::samples::sample`], which the viewer draws too).
     pub fn from_solution(s: &Solution, per_interval: usize) -> Dense {
-        let per = per_interval.max(1);
-        let tr = &s.trajectory;
-        let n = tr.x.len() - 1;
-        let lgr = s.mesh();
-        let nu = dynamics::control_dim(s.formulation);
-
-        let state = |c: usize| tr.x.iter().map(|x| x[c]).collect::<Vec<f64>>();
-        let sigma: Vec<f64> = (0..n)
-            .map(|i| dynamics::thrust_components(s.formulation, &tr.x[i], &tr.u[i][..nu]).2)
-            .collect();
-        let chi: Vec<f64> = (0..n).map(|i| tr.u[i][nu - 1]).collect();
-        let columns = [
-            state(ix::X),
-            state(ix::Z),
-            state(ix::VX),
-            state(ix::VZ),
-            state(ix::THETA),
-            state(ix::W),
-            state(ix::OMEGA),
-            state(ix::DELTA),
-        ];
-
-        let mut taus = Vec::with_capacity(n * per + 1);
-        let mut node = Vec::with_capacity(n * per + 1);
-        for k in 0..n {
-            let (a, b) = (lgr.nodes[k], lgr.nodes[k + 1]);
-            for j in 0..per {
-                taus.push(if j == 0 {
-                    a
-                } else {
-                    a + (b - a) * j as f64 / per as f64
-                });
-                node.push((j == 0).then_some(k));
-            }
+        let samples = bellyflop::output::samples::sample(s, per_interval);
+        Dense {
+            node: samples.node,
+            ..Dense::from_columns(samples.columns)
         }
-        taus.push(lgr.nodes[n]);
-        node.push(Some(n));
-
-        let mut d = Dense {
-            node,
-            ..Dense::default()
-        };
-        for &tau in &taus {
-            let st: Vec<f64> = columns
-                .iter()
-                .map(|c| lgr.interpolate_states(c, tau))
-                .collect();
-            let mass = st[6].exp();
-            d.t_s.push((tau + 1.0) * tr.tf_s / 2.0);
-            d.x_m.push(st[0]);
-            d.z_m.push(st[1]);
-            d.vx_mps.push(st[2]);
-            d.vz_mps.push(st[3]);
-            d.theta_rad.push(st[4]);
-            d.pitch_rate_radps.push(st[5]);
-            d.mass_kg.push(mass);
-            d.delta_rad.push(st[7]);
-            // On (τ_N, 1] the controls hold the last collocation value, as in
-            // the Solution's arrays; the polynomial would be extrapolated there.
-            let tau_c = tau.min(lgr.nodes[n - 1]);
-            d.thrust_n
-                .push(lgr.interpolate_controls(&sigma, tau_c) * mass);
-            d.gimbal_rate_radps
-                .push(lgr.interpolate_controls(&chi, tau_c));
-        }
-        d
     }
 
     /// The solution's node values only (N + 1 samples), as stored in the

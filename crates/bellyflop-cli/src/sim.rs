@@ -40,8 +40,9 @@ pub struct SimArgs {
     #[arg(long)]
     json: bool,
     /// Write the plan's files and plots (as `solve --out`) with the flown
-    /// trajectory overlaid, plus flight.csv, replans.csv, flight.json and the
-    /// re-plan timeline plot, into DIR.
+    /// trajectory overlaid, plus flight.csv, replans.csv, flight.json, the
+    /// re-plan timeline plot and viewer.html (the flight, to play in a
+    /// browser), into DIR.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
 }
@@ -211,5 +212,7 @@ fn write(
     files.push(path);
 
     files.extend(plot::timeline(dir, f)?);
+    let data = bellyflop::output::viewer::flight_data(&case.scenario, f, v);
+    files.push(output::write_viewer(dir, &data)?);
     Ok(files)
 }

@@ -33,6 +33,7 @@ fn sim_lands_and_writes_its_files() {
         "flight.json",
         "timeline.png",
         "timeline.svg",
+        "viewer.html",
     ] {
         assert!(dir.join(f).is_file(), "{f} missing");
     }
@@ -112,6 +113,7 @@ fn montecarlo_summary_has_the_documented_fields_and_is_thread_independent() {
         "touchdown.png",
         "touchdown.svg",
         "replan_times.png",
+        "viewer.html",
     ] {
         assert!(d1.join(f).is_file(), "{f} missing");
     }

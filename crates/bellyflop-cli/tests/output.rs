@@ -145,6 +145,56 @@ fn solve_out_writes_csv_json_and_every_plot() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The data a viewer.html carries: the JSON of its data script.
+fn viewer_data(page: &str) -> serde_json::Value {
+    let open = "<script id=\"bellyflop-data\" type=\"application/json\">";
+    let start = page.find(open).expect("a data script") + open.len();
+    let len = page[start..].find("</script>").expect("closed");
+    serde_json::from_str(&page[start..start + len]).expect("JSON")
+}
+
+#[test]
+fn solve_out_writes_a_self_contained_viewer() {
+    let dir = temp_dir("viewer");
+    let (code, _, stderr) = bellyflop(&["solve", "--quiet", "--out", dir.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let page = std::fs::read_to_string(dir.join("viewer.html")).unwrap();
+    assert!(
+        page.len() < 1_000_000,
+        "viewer.html is {} bytes",
+        page.len()
+    );
+    // Nothing is loaded from elsewhere: no external script, style or image.
+    for external in ["src=", "href=", "@import", "url("] {
+        assert!(!page.contains(external), "viewer.html has {external}");
+    }
+    let data = viewer_data(&page);
+    assert_eq!(data["kind"], "solve");
+    // The plan is the solution.json object, its curves trajectory.csv's samples.
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("solution.json")).unwrap()).unwrap();
+    assert_eq!(data["plan"]["solution"], json);
+    let csv = std::fs::read_to_string(dir.join("trajectory.csv")).unwrap();
+    let x_csv: Vec<f64> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    let x_page: Vec<f64> = data["plan"]["dense"]["x_m"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert_eq!(x_page, x_csv);
+    // The flown trajectory ends where the landing check measured it.
+    let flown_z = data["flown"]["z_m"].as_array().unwrap();
+    let z_end = json["propagation"]["final_state"]["z_m"].as_f64().unwrap();
+    assert_eq!(flown_z.last().unwrap().as_f64().unwrap(), z_end);
+    assert_eq!(data["scenario"]["vehicle"]["length_m"], 50.0);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn solution_json_is_what_json_prints() {
     let dir = temp_dir("json");

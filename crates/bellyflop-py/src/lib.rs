@@ -15,7 +15,7 @@ use bellyflop::sim::RunOutcome;
 // The Python `Scenario` is a whole scenario file: the problem and its
 // `[solver]` settings (bellyflop::Case).
 use bellyflop::input::overrides::Overrides;
-use bellyflop::output::report;
+use bellyflop::output::{report, viewer};
 use bellyflop::{Case as CoreScenario, Formulation, Method};
 use numpy::PyArray1;
 use pyo3::create_exception;
@@ -330,6 +330,9 @@ pub struct Solution {
     value: Value,
     /// Time spent in Rust for this call (solve, re-propagation, JSON) \[ms\].
     core_ms: f64,
+    /// The data of its viewer page (`bellyflop::output::viewer::solve_data`);
+    /// null after unpickling, which keeps only the JSON.
+    viewer: Value,
 }
 
 #[pymethods]
@@ -341,6 +344,7 @@ impl Solution {
         Ok(Solution {
             value,
             core_ms: f64::NAN,
+            viewer: Value::Null,
         })
     }
 
@@ -381,6 +385,17 @@ impl Solution {
         Ok((ctor, (self.to_json(),)))
     }
 
+    /// The viewer page (as `bellyflop solve --out` writes viewer.html) in an
+    /// iframe, for Jupyter.
+    fn _repr_html_(&self) -> PyResult<String> {
+        Ok(iframe(&viewer_page(&self.viewer, "Solution")?))
+    }
+
+    /// Write the viewer page (viewer.html of `bellyflop solve --out`) to `path`.
+    fn save_html(&self, path: std::path::PathBuf) -> PyResult<()> {
+        save_page(&path, &viewer_page(&self.viewer, "Solution")?)
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "<bellyflop.Solution {}, t_f {} s, final mass {} kg>",
@@ -397,6 +412,9 @@ impl Solution {
 pub struct Flight {
     /// {"flight": sim --json object, "trace": {column: [..]}, "row": {..}}
     value: Value,
+    /// The data of its viewer page (`bellyflop::output::viewer::flight_data`);
+    /// null after unpickling.
+    viewer: Value,
 }
 
 #[pymethods]
@@ -404,7 +422,10 @@ impl Flight {
     #[staticmethod]
     fn _from_json(text: &str) -> PyResult<Self> {
         let value = serde_json::from_str(text).map_err(|e| InputError::new_err(e.to_string()))?;
-        Ok(Flight { value })
+        Ok(Flight {
+            value,
+            viewer: Value::Null,
+        })
     }
 
     fn _to_json(&self) -> String {
@@ -446,6 +467,17 @@ impl Flight {
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
         let ctor = py.get_type::<Flight>().getattr("_from_json")?;
         Ok((ctor, (self._to_json(),)))
+    }
+
+    /// The viewer page (as `bellyflop sim --out` writes viewer.html) in an
+    /// iframe, for Jupyter.
+    fn _repr_html_(&self) -> PyResult<String> {
+        Ok(iframe(&viewer_page(&self.viewer, "Flight")?))
+    }
+
+    /// Write the viewer page (viewer.html of `bellyflop sim --out`) to `path`.
+    fn save_html(&self, path: std::path::PathBuf) -> PyResult<()> {
+        save_page(&path, &viewer_page(&self.viewer, "Flight")?)
     }
 
     fn __repr__(&self) -> String {
@@ -509,14 +541,22 @@ fn solve(
     let s = overrides
         .apply(scenario.inner.clone())
         .map_err(input_error)?;
-    let (value, core_ms) = detached(py, move || {
+    let (value, core_ms, viewer) = detached(py, move || {
         let start = Instant::now();
         let solution = s.solve(&mut bellyflop::method::observer::Silent);
         let propagation = report::propagate(&s.scenario, &solution, interpolation);
         let v = report::solve_json(&s.scenario, &solution, &propagation);
-        (v, start.elapsed().as_secs_f64() * 1e3)
+        let core_ms = start.elapsed().as_secs_f64() * 1e3;
+        // After the clock: the viewer's data is not part of the solve.
+        let flown = propagation.as_ref().ok();
+        let data = viewer::solve_data(&s.scenario, &solution, &v, flown);
+        (v, core_ms, data)
     })?;
-    Ok(Solution { value, core_ms })
+    Ok(Solution {
+        value,
+        core_ms,
+        viewer,
+    })
 }
 
 /// Fly run `run` of campaign `seed` (as `bellyflop sim --seed S --run K`).
@@ -531,20 +571,55 @@ fn sim(
 ) -> PyResult<Flight> {
     let s = scenario.inner.clone();
     let c = config.inner.clone();
-    let value = detached(py, move || -> Result<Value, bellyflop::InputError> {
-        let f = c.fly(&s, seed, run, true)?;
-        let outcome = c.outcome(&f);
-        let flight = report::flight_json(&f, outcome, seed, run, &c);
-        let trace: serde_json::Map<String, Value> = report::TRACE_COLUMNS
-            .iter()
-            .zip(report::trace_columns(&f))
-            .map(|(name, col)| (name.to_string(), floats(&col)))
-            .collect();
-        let row = serde_json::to_value(RunRow::new(run, &f, &c.touchdown)).unwrap_or_default();
-        Ok(serde_json::json!({"flight": flight, "trace": trace, "row": row}))
-    })?
+    let value = detached(
+        py,
+        move || -> Result<(Value, Value), bellyflop::InputError> {
+            let f = c.fly(&s, seed, run, true)?;
+            let outcome = c.outcome(&f);
+            let flight = report::flight_json(&f, outcome, seed, run, &c);
+            let trace: serde_json::Map<String, Value> = report::TRACE_COLUMNS
+                .iter()
+                .zip(report::trace_columns(&f))
+                .map(|(name, col)| (name.to_string(), floats(&col)))
+                .collect();
+            let row = serde_json::to_value(RunRow::new(run, &f, &c.touchdown)).unwrap_or_default();
+            let viewer = viewer::flight_data(&s.scenario, &f, &flight);
+            let value = serde_json::json!({"flight": flight, "trace": trace, "row": row});
+            Ok((value, viewer))
+        },
+    )?
     .map_err(input_error)?;
-    Ok(Flight { value })
+    let (value, viewer) = value;
+    Ok(Flight { value, viewer })
+}
+
+/// The viewer page of `data`, or why there is none: a `what` rebuilt from
+/// JSON (unpickled) keeps no trajectory to draw.
+fn viewer_page(data: &Value, what: &str) -> PyResult<String> {
+    if data.is_null() {
+        return Err(PyValueError::new_err(format!(
+            "this {what} was rebuilt from JSON (unpickled) and has no viewer data; solve or fly it again"
+        )));
+    }
+    viewer::html(&data.to_string()).map_err(|e| InternalError::new_err(e.to_string()))
+}
+
+/// `page` as the `srcdoc` of an iframe: its script runs apart from the
+/// notebook's page, whatever the notebook does with inline scripts.
+fn iframe(page: &str) -> String {
+    let escaped = page
+        .replace('&', "&amp;")
+        .replace('"', "&quot;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;");
+    format!(
+        "<iframe srcdoc=\"{escaped}\" style=\"width: 100%; height: 1050px; border: 0\" sandbox=\"allow-scripts\"></iframe>"
+    )
+}
+
+fn save_page(path: &std::path::Path, page: &str) -> PyResult<()> {
+    std::fs::write(path, page)
+        .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", path.display())))
 }
 
 /// A float array as JSON (non-finite values as null, as serde_json writes them).

@@ -93,7 +93,9 @@ pub use control::{
     TERMINAL_MAX_TILT_DEG, TERMINAL_PITCH_WN_RADPS,
 };
 pub use flight::{end_state, fly, Flight, TraceSample};
-pub use replan::{ReplanEvent, ReplanOutcome, ReplanStatus, USABLE_DEFECT, USABLE_VIRTUAL_CONTROL};
+pub use replan::{
+    PlanPath, ReplanEvent, ReplanOutcome, ReplanStatus, USABLE_DEFECT, USABLE_VIRTUAL_CONTROL,
+};
 
 use crate::input::error::InputError;
 use crate::input::scenario::Case;

@@ -96,6 +96,37 @@ pub struct ReplanEvent {
     /// scenario's steady wind without [`GuidanceConfig::wind_estimate`]).
     pub wind_estimate_mps: f64,
     pub outcome: ReplanOutcome,
+    /// The answer the re-plan returned, at its nodes, for drawing it against
+    /// the flight (the viewer); empty for `bad_state`. Not serialized: the
+    /// JSON of a flight keeps its shape.
+    #[serde(skip)]
+    pub path: PlanPath,
+}
+
+/// A re-plan's answer at its LGR nodes, on the flight's clock.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PlanPath {
+    /// Flight time \[s\]: the re-plan's measurement time plus the plan's.
+    pub t_s: Vec<f64>,
+    pub x_m: Vec<f64>,
+    pub z_m: Vec<f64>,
+    pub vx_mps: Vec<f64>,
+    pub vz_mps: Vec<f64>,
+    pub theta_rad: Vec<f64>,
+}
+
+impl PlanPath {
+    /// The nodes of `sol`, a plan that starts at flight time `t0_s`.
+    fn of(sol: &Solution, t0_s: f64) -> PlanPath {
+        PlanPath {
+            t_s: sol.t_s.iter().map(|t| t0_s + t).collect(),
+            x_m: sol.x_m.clone(),
+            z_m: sol.z_m.clone(),
+            vx_mps: sol.vx_mps.clone(),
+            vz_mps: sol.vz_mps.clone(),
+            theta_rad: sol.theta_rad.clone(),
+        }
+    }
 }
 
 /// The plan being flown, with the times the loop keeps with it.
@@ -160,6 +191,9 @@ pub(super) fn replan(
         virtual_control,
         wind_estimate_mps: planner.scenario.environment.wind_x_mps,
         outcome,
+        path: result
+            .as_ref()
+            .map_or_else(|_| PlanPath::default(), |sol| PlanPath::of(sol, t_s)),
     }
 }
 
