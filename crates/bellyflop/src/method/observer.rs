@@ -19,6 +19,18 @@ pub trait Observer {
     /// A pass of mesh refinement, solved and estimated (ignored unless
     /// overridden).
     fn pass(&mut self, _pass: &Pass) {}
+    /// Whether the solve must end now (a wall-clock deadline), asked after
+    /// each iteration: the method then returns its last iterate as
+    /// `not_converged`. Never, unless overridden.
+    fn deadline_passed(&mut self) -> bool {
+        false
+    }
+}
+
+/// The message of a solve that an [`Observer`]'s deadline ended after
+/// `iterations` iterations of `method_iterations` ("interior-point" or "SCvx").
+pub fn deadline_message(iterations: usize, method_iterations: &str) -> String {
+    format!("the deadline passed after {iterations} {method_iterations} iterations; the last iterate is returned")
 }
 
 /// An observer that ignores everything.

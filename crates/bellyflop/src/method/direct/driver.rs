@@ -15,7 +15,7 @@ use crate::method::direct::line_search::{FilterLineSearch, LineSearch};
 use crate::method::direct::newton::Newton;
 use crate::method::direct::nlp::{Duals, Nlp};
 use crate::method::direct::restoration::Restoration;
-use crate::method::observer::{Iteration, Observer};
+use crate::method::observer::{deadline_message, Iteration, Observer};
 use crate::solution::{DirectIteration, Status};
 
 /// Where a solve starts: a primal point, with the defect multipliers or
@@ -121,6 +121,11 @@ impl<'a> Driver<'a> {
             };
             observer.iteration(Iteration::Direct(&record));
             history.push(record);
+            if observer.deadline_passed() {
+                let message = deadline_message(iteration, "interior-point");
+                outcome = Some((Status::NotConverged, message));
+                break;
+            }
         }
         self.finish(it, outcome, history)
     }

@@ -30,7 +30,7 @@ use crate::input::scenario::Scenario;
 use crate::input::settings::Method;
 use crate::input::settings::{Formulation, SolverSettings};
 use crate::method::observer::Iteration;
-use crate::method::observer::Observer;
+use crate::method::observer::{deadline_message, Observer};
 use crate::method::scvx::transcription::Transcription;
 use crate::problem::dynamics::{ix, NU_MAX, NX};
 
@@ -284,6 +284,10 @@ pub fn solve_from_with(
                 reference.virtual_control,
                 settings,
             ));
+            break;
+        }
+        if observer.deadline_passed() {
+            outcome = Some((Status::NotConverged, deadline_message(iteration, "SCvx")));
             break;
         }
     }
