@@ -3,6 +3,10 @@
 //! `catch_unwind` (a panic becomes `BF_ERROR_PANIC`, never an unwind into
 //! C), and keeps the message of a failure for `bf_last_error`.
 #![allow(non_camel_case_types)]
+// These are C entry points: a C caller cannot see `unsafe`, every pointer is
+// checked for NULL before use, and the caller's contract (a non-NULL pointer
+// is valid for the stated length) is in the header's comments.
+#![allow(clippy::not_unsafe_ptr_arg_deref)]
 
 use std::ffi::{c_char, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
