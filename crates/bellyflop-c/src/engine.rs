@@ -57,17 +57,7 @@ impl Problem {
 
     /// The initial state, in the C units.
     pub fn initial_state(&self) -> bf_state {
-        let i = &self.case.scenario.initial;
-        bf_state {
-            x_m: i.x_m,
-            z_m: i.z_m,
-            vx_mps: i.vx_mps,
-            vz_mps: i.vz_mps,
-            theta_rad: i.theta_deg.to_radians(),
-            pitch_rate_radps: i.pitch_rate_degps.to_radians(),
-            mass_kg: i.mass_kg,
-            gimbal_rad: i.gimbal_deg.to_radians(),
-        }
+        c_state(&self.case.scenario.initial)
     }
 
     /// Nodes of a solution: N + 1.

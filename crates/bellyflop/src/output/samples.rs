@@ -15,19 +15,18 @@ use crate::Solution;
 
 /// The names of the sampled columns, in order, with their units as
 /// suffixes (the keys of the solution's JSON node arrays).
-pub const COLUMN_NAMES: [&str; 11] = [
-    "t_s",
-    "x_m",
-    "z_m",
-    "vx_mps",
-    "vz_mps",
-    "theta_rad",
-    "pitch_rate_radps",
-    "mass_kg",
-    "delta_rad",
-    "thrust_n",
-    "gimbal_rate_radps",
-];
+pub const COLUMN_NAMES: [&str; 11] = {
+    let state = crate::solution::STATE_COLUMN_NAMES;
+    let mut names = ["t_s"; 11];
+    let mut k = 0;
+    while k < state.len() {
+        names[1 + k] = state[k];
+        k += 1;
+    }
+    names[9] = "thrust_n";
+    names[10] = "gimbal_rate_radps";
+    names
+};
 
 /// A solution sampled densely: the columns of [`COLUMN_NAMES`], and for each
 /// sample `Some(k)` where it is LGR node k (0 ≤ k ≤ N).
