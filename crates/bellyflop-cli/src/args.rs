@@ -47,6 +47,12 @@ pub struct SolveArgs {
     /// `solver.refinement.tolerance` (0: no refinement).
     #[arg(long, value_name = "TOL")]
     pub mesh_tolerance: Option<f64>,
+    /// The raw collocation answer, without the polish that makes its
+    /// controls fly (`solver.polish = false`): faster, and at N = 20 it
+    /// misses the pad by metres on much of the envelope, so the default
+    /// landing tolerances call it `inaccurate` there.
+    #[arg(long)]
+    pub fast: bool,
     /// Print one JSON object on stdout instead of a summary.
     #[arg(long)]
     pub json: bool,

@@ -53,6 +53,9 @@ pub fn print_summary(p: &Result<Propagation, IntegrationError>, optimized_mass_k
                 bellyflop::verify::propagate::ControlSource::Collocation => {
                     "the collocation's controls as flown, per interval".to_string()
                 }
+                bellyflop::verify::propagate::ControlSource::Flown => {
+                    "the flown controls, piece by piece".to_string()
+                }
                 _ => format!("{} controls", o.interpolation.as_str()),
             };
             println!(

@@ -23,6 +23,7 @@ pub fn case(args: &SolveArgs) -> Result<Case, bellyflop::InputError> {
         formulation: args.formulation,
         method: args.method,
         mesh_tolerance: args.mesh_tolerance,
+        fast: args.fast,
     }
     .apply(case)
 }

@@ -518,7 +518,7 @@ fn parse_interpolation(s: &str) -> PyResult<Interpolation> {
 /// Solve `scenario` with the overrides of `bellyflop solve` and return the
 /// `--json` object as a Solution.
 #[pyfunction]
-#[pyo3(signature = (scenario, nodes=None, intervals=None, method=None, formulation=None, interpolation="pchip", mesh_tolerance=None))]
+#[pyo3(signature = (scenario, nodes=None, intervals=None, method=None, formulation=None, interpolation="pchip", mesh_tolerance=None, fast=false))]
 #[allow(clippy::too_many_arguments)] // Python's keyword arguments, one each
 fn solve(
     py: Python<'_>,
@@ -529,6 +529,7 @@ fn solve(
     formulation: Option<&str>,
     interpolation: &str,
     mesh_tolerance: Option<f64>,
+    fast: bool,
 ) -> PyResult<Solution> {
     let overrides = Overrides {
         nodes,
@@ -536,6 +537,7 @@ fn solve(
         formulation: formulation.map(parse_formulation).transpose()?,
         method: method.map(parse_method).transpose()?,
         mesh_tolerance,
+        fast,
     };
     let interpolation = parse_interpolation(interpolation)?;
     let s = overrides

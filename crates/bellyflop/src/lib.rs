@@ -16,6 +16,8 @@
 //!   and history;
 //! - [`verify`]: re-integration of the controls, the landing error against
 //!   the tolerances, and the error of each mesh interval;
+//! - [`polish`]: the controls as flown (bounds and cubics per arc, [`flown`])
+//!   made to land and to be fuel-optimal by single shooting;
 //! - [`refine`]: hp mesh refinement to a tolerance, with breaks at the switches;
 //! - [`pipeline`]: [`solve`], the whole of it, with statuses that are claims;
 //! - [`guidance`]: the closed loop: navigation, re-planning, control;
@@ -29,6 +31,7 @@
 //! `conic` and `transcription`) are public for the benchmarks and tests that
 //! measure them, and hidden from these docs: they are not the API.
 pub mod collocation;
+pub mod flown;
 #[cfg(feature = "fuzzing")]
 pub mod fuzzing;
 pub mod guidance;
@@ -36,6 +39,7 @@ pub mod input;
 pub mod method;
 pub mod output;
 pub mod pipeline;
+pub mod polish;
 pub mod problem;
 pub mod refine;
 pub mod sim;

@@ -7,6 +7,7 @@ use crate::input::scenario::{Case, Scenario};
 use crate::input::settings::SolverSettings;
 use crate::method::observer::Observer;
 use crate::method::{self, Start};
+use crate::polish;
 use crate::problem::feasibility;
 use crate::refine;
 use crate::solution::{Solution, Status};
@@ -21,16 +22,18 @@ use crate::verify::accuracy;
 /// 2. a method that stops locally infeasible without a certificate gives
 ///    `not_converged`: no trajectory was found, the method's reason, and that
 ///    infeasibility is not proven;
-/// 3. a `solved` answer whose controls, re-integrated, land beyond the
-///    scenario's tolerances is `inaccurate` ([`accuracy::check`]).
+/// 3. a `solved` answer is polished into controls that fly
+///    ([`polish`], unless `solver.polish = false`), and then if its
+///    controls (the flown ones when polished), re-integrated, land beyond
+///    the scenario's tolerances it is `inaccurate` ([`accuracy::check`]).
 ///
 /// With `solver.refinement.tolerance` > 0 the mesh is refined until every
 /// interval's relative error is within it ([`refine::solve`]), and step 3
 /// checks the last pass's answer.
 ///
 /// `solve_time_ms` is the method's own time (the certificate's alone when it
-/// answers; every pass and its error estimate when refining); the
-/// re-integration of step 3 is not counted. The methods on their own
+/// answers; every pass and its error estimate when refining) plus the
+/// polish's; the re-integration of the landing check is not counted. The methods on their own
 /// ([`method::Solver`], as the closed loop's re-plans call them) skip all
 /// three steps.
 pub fn solve(
@@ -66,10 +69,35 @@ pub fn solve(
             not_proven(scenario, sol)
         }
     };
+    if sol.status == Status::Solved && settings.polish {
+        polish_answer(scenario, &mut sol);
+    }
     if sol.status == Status::Solved {
         accuracy::check(scenario, settings, &mut sol);
     }
     sol
+}
+
+/// Step 3's first half: the polish of a solved answer ([`polish`]); its
+/// time joins `solve_time_ms`. When it fails, the raw collocation answer
+/// stays, the landing check judges it as it is, and the polish's failure
+/// joins the message (the check names the miss if it demotes the answer).
+fn polish_answer(scenario: &Scenario, sol: &mut Solution) {
+    let outcome = polish::polish(scenario, sol)
+        .map_err(|e| e.to_string())
+        .and_then(|p| {
+            let ms = p.time_ms;
+            let iterations = p.iterations;
+            polish::publish::publish(scenario, sol, p)
+                .map(|()| (ms, iterations))
+                .map_err(|e| format!("its controls could not be integrated ({e})"))
+        });
+    match outcome {
+        Ok((ms, _)) => sol.solve_time_ms += ms,
+        Err(e) => {
+            sol.message = format!("the polish failed, so this is the raw collocation answer: {e}")
+        }
+    }
 }
 
 impl Case {

@@ -1,5 +1,6 @@
 //! The result of a solve: status, trajectory in physical units, checks and history.
 
+use crate::flown::FlownControls;
 use serde::Serialize;
 
 use crate::collocation::mesh::Mesh;
@@ -260,6 +261,11 @@ pub struct Solution {
     /// The passes of hp mesh refinement, when it ran ([`crate::refine`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refinement: Option<Refinement>,
+    /// The controls as flown, when the answer was polished
+    /// ([`crate::polish`]): the landing check integrates these, and the
+    /// node arrays sample their trajectory.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub controls_flown: Option<FlownControls>,
     /// The LCvx trajectory itself, for warm starts and re-propagation.
     #[serde(skip)]
     pub trajectory: Trajectory,
@@ -344,6 +350,7 @@ impl Solution {
             method: outcome.method,
             history: outcome.history,
             refinement: None,
+            controls_flown: None,
             trajectory: t,
         }
     }

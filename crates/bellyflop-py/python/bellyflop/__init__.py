@@ -88,6 +88,7 @@ def solve(
     formulation: Optional[str] = None,
     interpolation: str = "pchip",
     mesh_tolerance: Optional[float] = None,
+    fast: bool = False,
 ) -> Solution:
     """Solve one landing problem, as ``bellyflop solve --json`` does.
 
@@ -98,7 +99,10 @@ def solve(
     (``"pchip"`` or ``"linear"``) rebuilds the controls for the landing error.
     ``mesh_tolerance`` refines the mesh until every interval's relative error
     is within it (``--mesh-tolerance``; the passes are in
-    ``to_dict()["refinement"]``).
+    ``to_dict()["refinement"]``). By default a solved answer is polished
+    into controls that fly (``to_dict()["controls_flown"]``, the README's
+    "The flown controls"); ``fast=True`` returns the raw collocation answer
+    (``--fast``).
 
     The GIL is released while the core solves. Raises :class:`InputError`
     on bad input; any other outcome is ``Solution.status``.
@@ -111,6 +115,7 @@ def solve(
         formulation=formulation,
         mesh_tolerance=mesh_tolerance,
         interpolation=interpolation,
+        fast=fast,
     )
 
 

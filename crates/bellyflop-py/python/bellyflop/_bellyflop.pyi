@@ -144,6 +144,7 @@ def solve(
     formulation: Optional[str] = ...,
     interpolation: str = ...,
     mesh_tolerance: Optional[float] = ...,
+    fast: bool = ...,
 ) -> Solution: ...
 def sim(scenario: Scenario, config: SimConfig, seed: int = ..., run: int = ...) -> Flight: ...
 def campaign_chunk(

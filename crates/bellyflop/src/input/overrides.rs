@@ -17,6 +17,9 @@ pub struct Overrides {
     pub method: Option<Method>,
     /// `solver.refinement.tolerance` (`--mesh-tolerance`; 0: no refinement).
     pub mesh_tolerance: Option<f64>,
+    /// The raw collocation answer, without the polish (`--fast`:
+    /// `solver.polish = false`).
+    pub fast: bool,
 }
 
 impl Overrides {
@@ -42,6 +45,9 @@ impl Overrides {
         }
         if let Some(tol) = self.mesh_tolerance {
             case.solver.refinement.tolerance = tol;
+        }
+        if self.fast {
+            case.solver.polish = false;
         }
         case.validate()?;
         Ok(case)

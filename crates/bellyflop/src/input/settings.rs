@@ -183,14 +183,19 @@ pub struct SolverSettings {
     /// lateral error any more then returns the smallest miss instead of
     /// failing.
     pub terminal_lateral_weight: f64,
+    /// Polish a solved collocation answer into controls that fly
+    /// ([`crate::polish`]; the default). `false` (`--fast` on the command
+    /// line) returns the raw collocation answer, which the landing check
+    /// then judges as it is.
+    pub polish: bool,
     /// Largest re-integrated landing position error ‖(x, z)(t_f) − (x_f, z_f)‖
     /// of a `solved` answer \[m\] ([`crate::verify::accuracy`]); beyond it the status
-    /// is `inaccurate`. Default 5 m, six times the paper's case at N = 20
-    /// (0.81 m with both methods).
+    /// is `inaccurate`. Default 0.1 m: the polished answer lands within
+    /// micrometres; a raw collocation answer (`polish = false`) at N = 20
+    /// misses by 0.8 m on the paper's case and by metres elsewhere.
     pub landing_position_tolerance_m: f64,
     /// Largest re-integrated landing velocity error ‖(Vx, Vz)(t_f) − (Vx_f,
-    /// Vz_f)‖ [m/s]. Default 2 m/s, six times the paper's case at N = 20
-    /// (0.32 m/s).
+    /// Vz_f)‖ [m/s]. Default 0.05 m/s.
     pub landing_velocity_tolerance_mps: f64,
     /// hp mesh refinement (`[solver.refinement]`; off unless its tolerance
     /// is set).
@@ -223,8 +228,9 @@ impl Default for SolverSettings {
             thrust_margin_frac: 0.0,
             thrust_margin_weight: 100.0,
             terminal_lateral_weight: 0.0,
-            landing_position_tolerance_m: 5.0,
-            landing_velocity_tolerance_mps: 2.0,
+            polish: true,
+            landing_position_tolerance_m: 0.1,
+            landing_velocity_tolerance_mps: 0.05,
             refinement: RefinementSettings::default(),
         }
     }

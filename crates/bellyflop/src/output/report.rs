@@ -73,6 +73,10 @@ pub fn add_landing_json(v: &mut Value, p: &Result<Propagation, IntegrationError>
 /// A refined solution's last pass estimated it already (refinement returns
 /// the answer of its last estimated pass); that estimate is reused.
 pub fn add_mesh_json(v: &mut Value, scenario: &Scenario, solution: &Solution) {
+    if solution.controls_flown.is_some() {
+        v["mesh"] = json!({ "error": "not applicable: the answer was polished, and its controls_flown are integrated, not collocated (the landing error is their error)" });
+        return;
+    }
     let done = solution
         .refinement
         .as_ref()

@@ -2,8 +2,9 @@
 //! scenario's landing tolerances.
 //!
 //! Collocation meets the dynamics only at its nodes. [`check`] re-integrates
-//! the controls with [`propagate::propagate`] (DOP853 at 1e-10, PCHIP
-//! controls, the nozzle angle interpolated: the defaults of `bellyflop
+//! the controls with [`propagate::propagate`] (DOP853 at 1e-10; the flown
+//! controls of a polished answer, [`crate::polish`]; else PCHIP through the
+//! nodes, the nozzle angle interpolated: the defaults of `bellyflop
 //! solve`) and compares the miss at t_f,
 //! ‖(x, z)(t_f) − (x_f, z_f)‖ \[m\] and ‖(Vx, Vz)(t_f) − (Vx_f, Vz_f)‖ [m/s],
 //! with `solver.landing_position_tolerance_m` and
@@ -27,10 +28,24 @@ pub fn check(scenario: &Scenario, settings: &SolverSettings, sol: &mut Solution)
         settings.landing_velocity_tolerance_mps,
     );
     let n = sol.nodes;
-    let remedy = format!(
-        "the collocation meets the dynamics only at its N = {n} nodes: use more nodes (discretization.nodes or --nodes, e.g. {}) or an hp mesh of several intervals (discretization.intervals or --intervals)",
+    let remedy = if sol.controls_flown.is_some() {
+        "the polished controls should land within micrometres: please report this state".to_string()
+    } else {
+        format!(
+        "the collocation meets the dynamics only at its N = {n} nodes: polish the answer (solver.polish = true, the default; without --fast), or use more nodes (discretization.nodes or --nodes, e.g. {}) or an hp mesh of several intervals (discretization.intervals or --intervals)",
         (2 * n).min(100)
-    );
+    )
+    };
+    let controls = if sol.controls_flown.is_some() {
+        "the flown controls re-integrated (DOP853)"
+    } else {
+        "the controls re-integrated (DOP853, PCHIP)"
+    };
+    let before = if sol.message.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", sol.message)
+    };
     let reason = match propagate::propagate(scenario, sol, &Options::default()) {
         Ok(p) => {
             let e = p.landing_error;
@@ -39,7 +54,7 @@ pub fn check(scenario: &Scenario, settings: &SolverSettings, sol: &mut Solution)
                 return;
             }
             format!(
-                "the controls re-integrated (DOP853, PCHIP) land {:.2} m and {:.2} m/s from the target, beyond the tolerances of {tol_m} m and {tol_mps} m/s (solver.landing_position_tolerance_m, solver.landing_velocity_tolerance_mps); {remedy}",
+                "{controls} land {:.3} m and {:.3} m/s from the target, beyond the tolerances of {tol_m} m and {tol_mps} m/s (solver.landing_position_tolerance_m, solver.landing_velocity_tolerance_mps){before}; {remedy}",
                 e.position_m, e.velocity_mps
             )
         }

@@ -86,6 +86,7 @@ use serde::Serialize;
 
 use crate::collocation::control_profile::Profile;
 use crate::collocation::interpolation::{Interpolant, Interpolation};
+use crate::flown::FlownControls;
 use crate::input::scenario::Scenario;
 use crate::problem::dynamics::{self, Model};
 use crate::solution::Solution;
@@ -134,6 +135,10 @@ pub enum ControlSource {
     /// smooth inside each interval, and these converge as the collocation
     /// does, where PCHIP's cubics do not (BENCHMARKS.md, "Mesh refinement").
     Collocation,
+    /// The published controls of a polished answer
+    /// ([`Solution::controls_flown`], [`crate::flown`]), piece by piece.
+    /// `auto` picks them whenever the answer has them.
+    Flown,
 }
 
 /// The miss at t_f against the scenario's terminal state.
@@ -471,23 +476,57 @@ pub fn propagate(
         initial: std::array::from_fn(|c| states0[c][0]),
         interval_points: &s.mesh.points,
         collocation: match options.controls {
-            ControlSource::Auto => s.refinement.is_some(),
+            ControlSource::Auto | ControlSource::Flown => s.refinement.is_some(),
             ControlSource::Nodes => false,
             ControlSource::Collocation => true,
         },
     };
     let model = Model::new(&scenario.vehicle, &scenario.environment);
-    let (t_s, states, delta_rad, stats) = integrate_controls(&model, &controls, options)?;
-    let end = *states.last().expect("at least the initial state");
-    let landing_error = landing_error(scenario, &end);
-    let mut used = *options;
-    used.controls = if controls.collocation {
+    let flown = match options.controls {
+        ControlSource::Auto | ControlSource::Flown => s.controls_flown.as_ref(),
+        _ => None,
+    };
+    if let Some(flown) = flown {
+        let (track, _) =
+            integrate_flown(&model, flown, &controls.initial, &options.integrator, &[])?;
+        return Ok(propagation(
+            scenario,
+            s,
+            options,
+            ControlSource::Flown,
+            track,
+        ));
+    }
+    if options.controls == ControlSource::Flown {
+        return Err(IntegrationError::BadSolution(
+            "the answer has no flown controls (it was not polished)".into(),
+        ));
+    }
+    let track = integrate_controls(&model, &controls, options)?;
+    let used = if controls.collocation {
         ControlSource::Collocation
     } else {
         ControlSource::Nodes
     };
-    Ok(Propagation {
-        options: used,
+    Ok(propagation(scenario, s, options, used, track))
+}
+
+/// A propagation's record of `track`, its landing error and mass error.
+fn propagation(
+    scenario: &Scenario,
+    s: &Solution,
+    options: &Options,
+    used: ControlSource,
+    track: Track,
+) -> Propagation {
+    let (t_s, states, delta_rad, stats) = track;
+    let end = *states.last().expect("at least the initial state");
+    let landing_error = landing_error(scenario, &end);
+    Propagation {
+        options: Options {
+            controls: used,
+            ..*options
+        },
         t_s,
         states,
         delta_rad,
@@ -495,7 +534,70 @@ pub fn propagate(
         terminal_mass_kg: end[6],
         mass_error_kg: end[6] - s.final_mass_kg,
         stats,
-    })
+    }
+}
+
+/// Integrate Eq. (1)–(3) under the flown controls ([`crate::flown`]) from
+/// `initial` (x, z, Vx, Vz, θ, w, m), piece by piece (no step straddles a
+/// piece's end, where T may jump), stopping also at each of the increasing
+/// times `samples` \[s\]. Returns the track of every accepted step and the
+/// state at each sample time.
+pub fn integrate_flown(
+    model: &Model,
+    flown: &FlownControls,
+    initial: &[f64; 7],
+    integrator: &Dop853,
+    samples: &[f64],
+) -> Result<(Track, Vec<[f64; 7]>), IntegrationError> {
+    let ok = !flown.pieces.is_empty()
+        && flown
+            .pieces
+            .iter()
+            .all(|p| p.t_end_s >= p.t_start_s && p.t_start_s.is_finite() && p.t_end_s.is_finite());
+    if !ok {
+        return Err(IntegrationError::BadSolution(
+            "the flown controls need at least one piece, each with finite, ordered ends".into(),
+        ));
+    }
+    let mut y = *initial;
+    let mut t_out = vec![flown.pieces[0].t_start_s];
+    let mut states = vec![y];
+    let mut delta_out = vec![flown.pieces[0].delta_rad.value(0.0)];
+    let mut at_samples = Vec::with_capacity(samples.len());
+    let mut stats = Stats::default();
+    let mut h = 0.0;
+    let mut next = 0;
+    for piece in &flown.pieces {
+        let rhs = |t: f64, y: &[f64; 7]| -> [f64; 7] {
+            let s = piece.s_of(t);
+            dynamics::rhs_physical(model, y, piece.thrust_n.value(s), piece.delta_rad.value(s))
+        };
+        let mut t = piece.t_start_s;
+        while next < samples.len() && samples[next] <= piece.t_start_s {
+            at_samples.push(y);
+            next += 1;
+        }
+        let mut stops: Vec<f64> = samples[next..]
+            .iter()
+            .copied()
+            .take_while(|&s| s < piece.t_end_s)
+            .collect();
+        stops.push(piece.t_end_s);
+        for stop in stops {
+            y = integrator.integrate(rhs, t, y, stop, &mut h, &mut stats, |t, y| {
+                t_out.push(t);
+                states.push(*y);
+                delta_out.push(piece.delta_rad.value(piece.s_of(t)));
+            })?;
+            t = stop;
+            if stop < piece.t_end_s {
+                at_samples.push(y);
+                next += 1;
+            }
+        }
+    }
+    at_samples.resize(samples.len(), y);
+    Ok(((t_out, states, delta_out, stats), at_samples))
 }
 
 /// The miss of a final state (x, z, Vx, Vz, θ, w, m) against `scenario.terminal`.

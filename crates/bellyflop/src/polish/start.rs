@@ -1,0 +1,129 @@
+//! The polish's starting point, from a collocation answer: its segments
+//! (the thrust's arcs, cut to at most [`MAX_SEGMENT_S`]) and its parameters
+//! (each segment's duration, and the shifted-Legendre projections of δ and
+//! of a free T).
+
+use crate::collocation::control_profile::Profile;
+use crate::collocation::interpolation::{Interpolant, Interpolation};
+use crate::flown::legendre;
+use crate::polish::arcs::{thrust_arcs, Arc, ArcKind};
+use crate::polish::shooting::{Layout, Segment, NC, STEP_S};
+use crate::problem::dynamics::Model;
+use crate::solution::Solution;
+
+/// Longest segment at the start \[s\]: one cubic of δ (and of a free T) per
+/// segment follows the collocation's controls to ~1e-3 of their range at
+/// this length on the envelope's answers.
+pub const MAX_SEGMENT_S: f64 = 1.5;
+
+/// Shortest duration a segment may shrink to \[s\] (an arc that the
+/// collocation placed but the optimum does not want nearly vanishes).
+pub const MIN_DURATION_S: f64 = 1e-3;
+
+/// The 4-point Gauss–Legendre rule on [0, 1]: (node, weight).
+const GAUSS4: [(f64, f64); 4] = [
+    (0.069_431_844_202_973_7, 0.173_927_422_568_726_9),
+    (0.330_009_478_207_571_9, 0.326_072_577_431_273_1),
+    (0.669_990_521_792_428_1, 0.326_072_577_431_273_1),
+    (0.930_568_155_797_026_3, 0.173_927_422_568_726_9),
+];
+
+/// The longest duration a segment of initial duration `d` may grow to \[s\].
+pub fn longest(d: f64) -> f64 {
+    (1.6 * d).max(d + 0.3)
+}
+
+/// Segments and initial parameters from a solved collocation answer.
+pub fn start(model: &Model, sol: &Solution) -> (Layout, Vec<f64>) {
+    let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
+    let arcs = thrust_arcs(&sol.t_s, &sol.mesh.points, &sol.thrust_n, lo, hi);
+    let spans = cut(&arcs);
+    let segments: Vec<Segment> = spans
+        .iter()
+        .map(|&(t0, t1, thrust)| {
+            let d_max_s = longest(t1 - t0);
+            Segment {
+                thrust,
+                steps: (d_max_s / STEP_S).ceil() as usize,
+                d_min_s: MIN_DURATION_S,
+                d_max_s,
+            }
+        })
+        .collect();
+    let layout = Layout::new(segments);
+    let delta = Interpolant::new(Interpolation::Pchip, &sol.t_s, &sol.delta_rad);
+    let thrust = Profile::new(&sol.t_s, &sol.mesh.points, &sol.thrust_n, lo, hi);
+    let mut p = vec![0.0; layout.len];
+    for (j, &(t0, t1, _)) in spans.iter().enumerate() {
+        p[layout.duration(j)] = t1 - t0;
+        let at = layout.delta(j);
+        p[at..at + NC].copy_from_slice(&project(|t| delta.eval(t), t0, t1));
+        if let Some(at) = layout.thrust(j) {
+            p[at..at + NC].copy_from_slice(&project(|t| thrust.at(t), t0, t1));
+        }
+    }
+    (layout, p)
+}
+
+/// The arcs cut into segments of at most [`MAX_SEGMENT_S`], equal within an
+/// arc: (t_start, t_end, thrust).
+fn cut(arcs: &[Arc]) -> Vec<(f64, f64, ArcKind)> {
+    let mut out = Vec::new();
+    for a in arcs {
+        let len = a.t_end_s - a.t_start_s;
+        let k = (len / MAX_SEGMENT_S).ceil().max(1.0) as usize;
+        for i in 0..k {
+            let t0 = a.t_start_s + len * i as f64 / k as f64;
+            let t1 = a.t_start_s + len * (i + 1) as f64 / k as f64;
+            out.push((t0, t1, a.kind));
+        }
+    }
+    out
+}
+
+/// The L² projection of f on [t0, t1] onto P̃_0..P̃_3:
+/// c_k = (2k + 1)·∫₀¹ f·P̃_k ds, by 4-point Gauss (exact for cubics).
+fn project(f: impl Fn(f64) -> f64, t0: f64, t1: f64) -> [f64; NC] {
+    let mut c = [0.0; NC];
+    for &(s, w) in &GAUSS4 {
+        let v = f(t0 + s * (t1 - t0));
+        for (k, pk) in legendre(s).iter().enumerate() {
+            c[k] += (2 * k + 1) as f64 * w * v * pk;
+        }
+    }
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_projection_reproduces_a_cubic() {
+        let f = |t: f64| 1.0 - 2.0 * t + 0.5 * t * t * t;
+        let c = project(f, 1.0, 3.0);
+        for &s in &[0.0, 0.25, 0.6, 1.0] {
+            let v: f64 = c.iter().zip(legendre(s)).map(|(c, p)| c * p).sum();
+            assert!((v - f(1.0 + 2.0 * s)).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn long_arcs_are_cut_into_equal_segments() {
+        let arcs = [
+            Arc {
+                t_start_s: 0.0,
+                t_end_s: 4.0,
+                kind: ArcKind::Bound(1.0),
+            },
+            Arc {
+                t_start_s: 4.0,
+                t_end_s: 4.5,
+                kind: ArcKind::Free,
+            },
+        ];
+        let s = cut(&arcs);
+        assert_eq!(s.len(), 4);
+        assert!((s[2].1 - 4.0).abs() < 1e-15 && s[3] == (4.0, 4.5, ArcKind::Free));
+    }
+}
