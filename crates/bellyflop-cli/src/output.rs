@@ -110,7 +110,7 @@ pub fn write_all(
     overlay: Option<&Dense>,
 ) -> Result<Vec<PathBuf>, OutputError> {
     prepare(dir)?;
-    let dense = Dense::from_solution(solution, SAMPLES_PER_INTERVAL);
+    let dense = Dense::from_solution(scenario, solution, SAMPLES_PER_INTERVAL);
     let mut written = Vec::new();
 
     let csv = dir.join("trajectory.csv");

@@ -2,7 +2,7 @@
 //! trajectory.csv draw it: [`bellyflop::output::samples`], kept as columns
 //! with the node markers.
 
-use bellyflop::Solution;
+use bellyflop::{Scenario, Solution};
 
 /// A trajectory sampled in time, in SI units and radians.
 ///
@@ -51,11 +51,12 @@ impl Dense {
         self.t_s.len()
     }
 
-    /// Sample the solution's interpolants: `per_interval` samples on each of
-    /// the N intervals between consecutive LGR nodes, plus the final node
-    /// ([`bellyflop::output::samples::sample`], which the viewer draws too).
-    pub fn from_solution(s: &Solution, per_interval: usize) -> Dense {
-        let samples = bellyflop::output::samples::sample(s, per_interval);
+    /// Sample the answer: `per_interval` samples on each of the N
+    /// intervals between consecutive LGR nodes, plus the final node; a
+    /// polished answer as it flies, else its interpolants
+    /// ([`bellyflop::output::samples::of`], which the viewer draws too).
+    pub fn from_solution(scenario: &Scenario, s: &Solution, per_interval: usize) -> Dense {
+        let samples = bellyflop::output::samples::of(scenario, s, per_interval);
         Dense {
             node: samples.node,
             ..Dense::from_columns(samples.columns)
@@ -130,7 +131,7 @@ mod tests {
     #[test]
     fn nodes_are_sampled_exactly() {
         let s = solution(10);
-        let d = Dense::from_solution(&s, 7);
+        let d = Dense::from_solution(&bellyflop::Scenario::paper(), &s, 7);
         assert_eq!(d.len(), 10 * 7 + 1);
         assert!(COLUMNS.iter().all(|(_, c)| c(&d).len() == d.len()));
         let nodes = Dense::nodes_of(&s);

@@ -10,7 +10,10 @@
 //! thrust bounds). Between nodes these polynomials are what the collocation
 //! method represents; only the node values are optimized.
 
-use crate::problem::dynamics::{self, ix};
+use crate::input::scenario::Scenario;
+use crate::problem::dynamics::{self, ix, Model};
+use crate::verify::ode::Dop853;
+use crate::verify::propagate::integrate_flown;
 use crate::Solution;
 
 /// The names of the sampled columns, in order, with their units as
@@ -56,6 +59,68 @@ fn sample_taus(nodes: &[f64], per: usize) -> (Vec<f64>, Vec<Option<usize>>) {
     taus.push(nodes[n]);
     node.push(Some(n));
     (taus, node)
+}
+
+/// The samples of an answer at [`sample`]'s times: for a polished answer
+/// its flight ([`sample_flown`]), else its interpolants ([`sample`]).
+pub fn of(scenario: &Scenario, s: &Solution, per_interval: usize) -> Samples {
+    if s.controls_flown.is_some() {
+        if let Some(samples) = sample_flown(scenario, s, per_interval) {
+            return samples;
+        }
+    }
+    sample(s, per_interval)
+}
+
+/// A polished answer sampled as it flies: its `controls_flown` integrated
+/// from the scenario's initial state (DOP853 at 1e-10, the landing
+/// check's), the states at [`sample`]'s times and T, δ, χ of the flown
+/// controls there. None without flown controls or if the integration fails.
+pub fn sample_flown(scenario: &Scenario, s: &Solution, per_interval: usize) -> Option<Samples> {
+    let flown = s.controls_flown.as_ref()?;
+    let (taus, node) = sample_taus(&s.mesh().nodes, per_interval.max(1));
+    // At a node, its time and (below) its values are the node arrays' own,
+    // bit for bit: the same flight, sampled with other stops, differs in
+    // the last digits only.
+    let times: Vec<f64> = taus
+        .iter()
+        .zip(&node)
+        .map(|(tau, k)| k.map_or((tau + 1.0) * s.tf_s / 2.0, |k| s.t_s[k]))
+        .collect();
+    let model = Model::new(&scenario.vehicle, &scenario.environment);
+    let s0 = scenario.initial.state_si();
+    let y0 = [s0[0], s0[1], s0[2], s0[3], s0[4], s0[5], s0[6]];
+    let (_, states) = integrate_flown(&model, flown, &y0, &Dop853::default(), &times).ok()?;
+    let mut columns: [Vec<f64>; 11] = Default::default();
+    let at_node = s.state_columns();
+    for ((&t, y), k) in times.iter().zip(&states).zip(&node) {
+        let (thrust, delta, chi) = flown.at(t)?;
+        let row = match *k {
+            Some(k) => {
+                let c = |i: usize| at_node[i][k];
+                [
+                    t,
+                    c(0),
+                    c(1),
+                    c(2),
+                    c(3),
+                    c(4),
+                    c(5),
+                    c(6),
+                    s.delta_rad[k],
+                    s.thrust_n[k],
+                    s.gimbal_rate_radps[k],
+                ]
+            }
+            None => [
+                t, y[0], y[1], y[2], y[3], y[4], y[5], y[6], delta, thrust, chi,
+            ],
+        };
+        for (c, v) in columns.iter_mut().zip(row) {
+            c.push(v);
+        }
+    }
+    Some(Samples { columns, node })
 }
 
 /// Sample the solution's interpolants: `per_interval` samples on each of

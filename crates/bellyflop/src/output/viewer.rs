@@ -118,8 +118,8 @@ fn breaks_s(solution: &Solution) -> Vec<f64> {
 
 /// A plan as the viewer draws it: its JSON (`json`, e.g. the `solve --json`
 /// object), its dense samples and inner mesh breaks.
-fn plan_json(solution: &Solution, json: &Value) -> Value {
-    let s = samples::sample(solution, SAMPLES_PER_INTERVAL);
+fn plan_json(scenario: &Scenario, solution: &Solution, json: &Value) -> Value {
+    let s = samples::of(scenario, solution, SAMPLES_PER_INTERVAL);
     json!({
         "solution": json,
         "dense": columns_json(&COLUMN_NAMES, &s.columns),
@@ -139,7 +139,7 @@ pub fn solve_data(
     json!({
         "kind": "solve",
         "scenario": scenario,
-        "plan": plan_json(solution, json),
+        "plan": plan_json(scenario, solution, json),
         "flown": flown,
     })
 }
@@ -164,7 +164,7 @@ pub fn flight_data(scenario: &Scenario, flight: &Flight, json: &Value) -> Value 
     json!({
         "kind": "flight",
         "scenario": scenario,
-        "plan": plan_json(&flight.first_plan, &flight.first_plan.to_json()),
+        "plan": plan_json(scenario, &flight.first_plan, &flight.first_plan.to_json()),
         "replan_paths": replans,
         "flight": json,
         "trace": columns_json(&report::TRACE_COLUMNS, &trace),

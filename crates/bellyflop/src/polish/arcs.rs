@@ -1,6 +1,6 @@
-//! The arc structure of the thrust in a collocation answer: where T rides
-//! T_min or T_max and where it is free, with the switch times between arcs
-//! on opposite bounds placed by impulse.
+//! The arc structure of a control in a collocation answer: where it rides
+//! a bound (T on T_min or T_max, χ = δ̇ on ±χ_max) and where it is free,
+//! with the switch times between arcs on opposite bounds placed by impulse.
 //!
 //! Point i of the LGR quadrature owns the cell [c_i, c_i + w_i] (its
 //! weight, mapped to time; the cells partition [0, t_f]). Points within
@@ -16,34 +16,28 @@
 use crate::collocation::control_profile::{activity, Activity};
 use crate::collocation::radau::Lgr;
 
-/// What the thrust is on one arc.
+/// What a control is on one arc.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ArcKind {
-    /// Held on this bound \[N\].
+    /// Held on this bound (T \[N\], χ [rad/s]).
     Bound(f64),
     /// Free between the bounds (a polynomial of the polish).
     Free,
 }
 
-/// One arc of the thrust.
+/// One arc of a control.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Arc {
+pub struct Arc<K = ArcKind> {
     pub t_start_s: f64,
     pub t_end_s: f64,
-    pub kind: ArcKind,
+    pub kind: K,
 }
 
-/// The arcs of the thrust `values` (one per collocation point, N) on the mesh
+/// The arcs of the control `values` (one per collocation point, N) on the mesh
 /// with node times `t_s` (N + 1) and `interval_points` points per interval,
 /// within [lo, hi]. The arcs cover [t_s\[0\], t_s\[N\]] in order; adjacent
 /// arcs differ in kind.
-pub fn thrust_arcs(
-    t_s: &[f64],
-    interval_points: &[usize],
-    values: &[f64],
-    lo: f64,
-    hi: f64,
-) -> Vec<Arc> {
+pub fn arcs(t_s: &[f64], interval_points: &[usize], values: &[f64], lo: f64, hi: f64) -> Vec<Arc> {
     let n = t_s.len() - 1;
     let cells = cells(t_s, interval_points);
     let act: Vec<Activity> = values[..n].iter().map(|&v| activity(v, lo, hi)).collect();
@@ -159,7 +153,7 @@ mod tests {
                     / m as f64
             })
             .collect();
-        let arcs = thrust_arcs(&t_s, &[], &values, lo, hi);
+        let arcs = arcs(&t_s, &[], &values, lo, hi);
         let kinds: Vec<ArcKind> = arcs.iter().map(|a| a.kind).collect();
         assert_eq!(
             kinds,
@@ -176,7 +170,7 @@ mod tests {
         let (lo, hi) = (1.0, 3.0);
         let t_s: Vec<f64> = (0..=6).map(|k| k as f64).collect();
         let values = [3.0, 3.0, 2.0, 2.2, 1.8, 1.0];
-        let arcs = thrust_arcs(&t_s, &[1, 1, 1, 1, 1, 1], &values, lo, hi);
+        let arcs = arcs(&t_s, &[1, 1, 1, 1, 1, 1], &values, lo, hi);
         let kinds: Vec<ArcKind> = arcs.iter().map(|a| a.kind).collect();
         assert_eq!(
             kinds,

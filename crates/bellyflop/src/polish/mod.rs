@@ -36,7 +36,7 @@ use crate::problem::dynamics::Model;
 use crate::solution::Solution;
 
 /// Iteration limit of the polish.
-pub const MAX_ITERATIONS: usize = 40;
+pub const MAX_ITERATIONS: usize = 30;
 
 /// Converged when the scaled terminal residual Σ|r̂| is below this (1 mm
 /// in position, 10 µrad in pitch) ...
@@ -65,6 +65,17 @@ const PROXIMAL_MAX: f64 = 1e8;
 const BOX: f64 = 0.5;
 const RHO_SHRINK: f64 = 0.25;
 const RHO_GROW: f64 = 0.75;
+
+/// The residual below which the merit stops counting it (Σ|r̂|; 10 µm):
+/// the final corrections ([`correct`]) remove what is left, and below it the
+/// iteration's steps leave an O(Δ²) residual of their own that the exact
+/// penalty would weigh against the mass and so stall the iteration.
+const DEAD_BAND: f64 = 1e-5;
+
+/// The exact penalty w·max(0, Σ|r̂| − [`DEAD_BAND`]).
+fn penalty(residual: f64) -> f64 {
+    SLACK_WEIGHT * (residual - DEAD_BAND).max(0.0)
+}
 
 /// Why a polish failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -106,7 +117,7 @@ struct Problem {
 impl Problem {
     /// The merit φ = −m_f/M + w·Σ|r̂| at the final state `y`.
     fn merit(&self, y: &[f64; 7]) -> f64 {
-        -y[6] / MASS_SCALE_KG + SLACK_WEIGHT * self.residual(y).iter().map(|r| r.abs()).sum::<f64>()
+        -y[6] / MASS_SCALE_KG + penalty(self.residual(y).iter().map(|r| r.abs()).sum::<f64>())
     }
 
     /// r̂ = R⁻¹·(y(t_f) − y_f).
@@ -219,7 +230,19 @@ fn iterate(
             .map_err(|reason| PolishError::Subproblem { iteration, reason })?;
         let phi = problem.merit(&y);
         let gain: f64 = gradient.iter().zip(&step.dp).map(|(g, d)| g * d).sum();
-        let predicted = phi - (-y[6] / MASS_SCALE_KG - gain + SLACK_WEIGHT * step.slack);
+        // The linearized residual from the step itself, not the QP's slacks:
+        // below ~1e-6 the QP's tolerances, not the model, set those.
+        let linear: f64 = (0..6)
+            .map(|i| {
+                let change: f64 = terminal.jacobian[i]
+                    .iter()
+                    .zip(&step.dp)
+                    .map(|(a, d)| a * d)
+                    .sum();
+                (terminal.residual[i] + change).abs()
+            })
+            .sum();
+        let predicted = phi - (-y[6] / MASS_SCALE_KG - gain + penalty(linear));
         let residual: f64 = problem.residual(&y).iter().map(|r| r.abs()).sum();
         if residual < RESIDUAL_TOLERANCE && gain * MASS_SCALE_KG < MASS_TOLERANCE_KG {
             break;

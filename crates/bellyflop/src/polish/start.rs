@@ -1,12 +1,18 @@
 //! The polish's starting point, from a collocation answer: its segments
-//! (the thrust's arcs, cut to at most [`MAX_SEGMENT_S`]) and its parameters
+//! and its parameters. A segment ends wherever an arc of the thrust or of
+//! the gimbal rate χ ends (so that a kink of δ, where χ leaves ±χ_max, can
+//! sit on a free segment boundary), and none is longer than
+//! [`MAX_SEGMENT_S`]. (Holding χ on its bound over the χ arcs, δ linear
+//! there, was tried and lost up to 180 kg on 10 envelope states: the N = 20
+//! rate arcs are too coarse to impose; BENCHMARKS.md, issue 25.) The
+//! parameters are
 //! (each segment's duration, and the shifted-Legendre projections of δ and
 //! of a free T).
 
 use crate::collocation::control_profile::Profile;
 use crate::collocation::interpolation::{Interpolant, Interpolation};
 use crate::flown::legendre;
-use crate::polish::arcs::{thrust_arcs, Arc, ArcKind};
+use crate::polish::arcs::{arcs, Arc, ArcKind};
 use crate::polish::shooting::{Layout, Segment, NC, STEP_S};
 use crate::problem::dynamics::Model;
 use crate::solution::Solution;
@@ -36,11 +42,19 @@ pub fn longest(d: f64) -> f64 {
 /// Segments and initial parameters from a solved collocation answer.
 pub fn start(model: &Model, sol: &Solution) -> (Layout, Vec<f64>) {
     let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
-    let arcs = thrust_arcs(&sol.t_s, &sol.mesh.points, &sol.thrust_n, lo, hi);
-    let spans = cut(&arcs);
+    let chi = model.max_gimbal_rate_radps;
+    let thrust = arcs(&sol.t_s, &sol.mesh.points, &sol.thrust_n, lo, hi);
+    let rate = arcs(
+        &sol.t_s,
+        &sol.mesh.points,
+        &sol.gimbal_rate_radps,
+        -chi,
+        chi,
+    );
+    let spans = cut(&merge(&thrust, &rate));
     let segments: Vec<Segment> = spans
         .iter()
-        .map(|&(t0, t1, thrust)| {
+        .map(|&(t0, t1, (thrust, _))| {
             let d_max_s = longest(t1 - t0);
             Segment {
                 thrust,
@@ -65,9 +79,37 @@ pub fn start(model: &Model, sol: &Solution) -> (Layout, Vec<f64>) {
     (layout, p)
 }
 
+/// The arcs of T and of χ together: a span at every boundary of either,
+/// with the kind of each on it (the polish uses the thrust's).
+fn merge(thrust: &[Arc], rate: &[Arc]) -> Vec<Arc<(ArcKind, ArcKind)>> {
+    let mut cuts: Vec<f64> = thrust
+        .iter()
+        .chain(rate)
+        .flat_map(|a| [a.t_start_s, a.t_end_s])
+        .collect();
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    let kind_at = |arcs: &[Arc], t: f64| {
+        arcs.iter()
+            .find(|a| t < a.t_end_s)
+            .or(arcs.last())
+            .map_or(ArcKind::Free, |a| a.kind)
+    };
+    cuts.windows(2)
+        .map(|w| {
+            let mid = 0.5 * (w[0] + w[1]);
+            Arc {
+                t_start_s: w[0],
+                t_end_s: w[1],
+                kind: (kind_at(thrust, mid), kind_at(rate, mid)),
+            }
+        })
+        .collect()
+}
+
 /// The arcs cut into segments of at most [`MAX_SEGMENT_S`], equal within an
-/// arc: (t_start, t_end, thrust).
-fn cut(arcs: &[Arc]) -> Vec<(f64, f64, ArcKind)> {
+/// arc: (t_start, t_end, kind).
+fn cut<K: Copy>(arcs: &[Arc<K>]) -> Vec<(f64, f64, K)> {
     let mut out = Vec::new();
     for a in arcs {
         let len = a.t_end_s - a.t_start_s;
@@ -122,7 +164,7 @@ mod tests {
                 kind: ArcKind::Free,
             },
         ];
-        let s = cut(&arcs);
+        let s = cut(&arcs[..]);
         assert_eq!(s.len(), 4);
         assert!((s[2].1 - 4.0).abs() < 1e-15 && s[3] == (4.0, 4.5, ArcKind::Free));
     }

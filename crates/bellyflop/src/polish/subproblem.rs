@@ -167,14 +167,7 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
     for (q, g) in q.iter_mut().zip(qp.mass_gradient).take(n) {
         *q = if with_terminal { -g } else { 0.0 };
     }
-    let diagonal: Vec<usize> = (0..n).collect();
-    let p = CscMatrix::new_from_triplets(
-        nv,
-        nv,
-        diagonal.clone(),
-        diagonal,
-        vec![qp.proximal_weight; n],
-    );
+    let p = objective_matrix(qp, n, nv);
     // Constraints: zero cone first, then the nonnegative cone.
     let (mut ar, mut ac, mut av, mut b) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut row = 0;
@@ -234,11 +227,30 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
     solver.solve();
     let sol = &solver.solution;
     match sol.status {
-        SolverStatus::Solved | SolverStatus::AlmostSolved => Ok(Step {
-            dp: sol.x[..n].to_vec(),
-            slack: sol.x[n..].iter().sum(),
-            iterations: sol.iterations,
-        }),
+        // Insufficient progress still leaves Clarabel's best iterate; the
+        // caller judges every step by the shot itself (the ratio test, or
+        // the residual for the projection and the corrections).
+        SolverStatus::Solved | SolverStatus::AlmostSolved | SolverStatus::InsufficientProgress
+            if sol.x.iter().all(|v| v.is_finite()) =>
+        {
+            Ok(Step {
+                dp: sol.x[..n].to_vec(),
+                slack: sol.x[n..].iter().sum(),
+                iterations: sol.iterations,
+            })
+        }
         other => Err(format!("Clarabel status {other:?}")),
     }
+}
+
+/// ½·ε·‖Δp̂‖² in Clarabel's CSC form (zero on the slacks).
+fn objective_matrix(qp: &Qp, n: usize, nv: usize) -> CscMatrix<f64> {
+    let diagonal: Vec<usize> = (0..n).collect();
+    CscMatrix::new_from_triplets(
+        nv,
+        nv,
+        diagonal.clone(),
+        diagonal,
+        vec![qp.proximal_weight; n],
+    )
 }

@@ -487,8 +487,13 @@ pub fn propagate(
         _ => None,
     };
     if let Some(flown) = flown {
-        let (track, _) =
-            integrate_flown(&model, flown, &controls.initial, &options.integrator, &[])?;
+        let (track, _) = integrate_flown(
+            &model,
+            flown,
+            &controls.initial,
+            &options.integrator,
+            &s.t_s,
+        )?;
         return Ok(propagation(
             scenario,
             s,
