@@ -14,7 +14,7 @@
 //! T may jump between pieces (a bang–bang switch); δ is continuous. The
 //! gimbal rate χ = δ̇ is the derivative of the polynomial,
 //! (dδ/ds)/(t_end_s − t_start_s). The landing check
-//! ([`crate::verify::propagate::propagate_flown`]) integrates exactly this.
+//! ([`crate::verify::propagate::integrate_flown`]) integrates exactly this.
 
 use serde::{Deserialize, Serialize};
 

@@ -5,7 +5,7 @@
 //! and, on a segment where the thrust is free, the four of T \[N\]
 //! ([`crate::flown`]). In the segment's normalized time s ∈ [0, 1] the
 //! dynamics of Eq. (1)–(3) read dy/ds = d_j·f(y, T(s), δ(s))
-//! ([`dynamics::rhs_physical`]), integrated by `steps` classical RK4 steps
+//! ([`crate::problem::dynamics::rhs_physical`]), integrated by `steps` classical RK4 steps
 //! of size 1/steps. The step count of a segment is fixed for a polish, so
 //! that the end state is a smooth function of p; the steps stay below
 //! [`STEP_S`] on the longest duration the segment may take.
