@@ -87,13 +87,12 @@ fn polish_answer(scenario: &Scenario, sol: &mut Solution) {
         .map_err(|e| e.to_string())
         .and_then(|p| {
             let ms = p.time_ms;
-            let iterations = p.iterations;
             polish::publish::publish(scenario, sol, p)
-                .map(|()| (ms, iterations))
+                .map(|()| ms)
                 .map_err(|e| format!("its controls could not be integrated ({e})"))
         });
     match outcome {
-        Ok((ms, _)) => sol.solve_time_ms += ms,
+        Ok(ms) => sol.solve_time_ms += ms,
         Err(e) => {
             sol.message = format!("the polish failed, so this is the raw collocation answer: {e}")
         }

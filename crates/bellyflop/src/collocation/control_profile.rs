@@ -93,6 +93,38 @@ pub struct Profile {
     hi: f64,
 }
 
+/// The quadrature cell of every collocation point: its start \[s\] (point
+/// i of an interval starts at its τ_lo plus the weights before it, mapped
+/// to time) and its interval, on the mesh with node times `t_s` (N + 1) and
+/// `interval_points` points per interval (Σ = N; empty: one interval).
+///
+/// # Panics
+/// Panics if the points do not add up to N.
+pub fn cells(t_s: &[f64], interval_points: &[usize]) -> (Vec<f64>, Vec<usize>) {
+    let n = t_s.len() - 1;
+    let whole = [n];
+    let points = if interval_points.is_empty() {
+        &whole[..]
+    } else {
+        interval_points
+    };
+    assert_eq!(points.iter().sum::<usize>(), n, "points per interval");
+    let mut cell_start_s = Vec::with_capacity(n);
+    let mut cell_interval = Vec::with_capacity(n);
+    let mut start = 0;
+    for (k, &np) in points.iter().enumerate() {
+        let (t_lo, t_hi) = (t_s[start], t_s[start + np]);
+        let mut at = t_lo;
+        for w in &Lgr::new(np).weights {
+            cell_start_s.push(at);
+            cell_interval.push(k);
+            at += 0.5 * (t_hi - t_lo) * w;
+        }
+        start += np;
+    }
+    (cell_start_s, cell_interval)
+}
+
 impl Profile {
     /// The profile of `values` (one per collocation point) on the mesh
     /// whose node times are `t_s` (N + 1, strictly increasing) and whose
@@ -103,27 +135,8 @@ impl Profile {
     /// Panics if the lengths disagree (callers check them first).
     pub fn new(t_s: &[f64], interval_points: &[usize], values: &[f64], lo: f64, hi: f64) -> Self {
         let n = t_s.len() - 1;
-        let whole = [n];
-        let points = if interval_points.is_empty() {
-            &whole[..]
-        } else {
-            interval_points
-        };
-        assert_eq!(points.iter().sum::<usize>(), n, "points per interval");
         assert!(values.len() >= n, "one value per collocation point");
-        let mut cell_start_s = Vec::with_capacity(n);
-        let mut cell_interval = Vec::with_capacity(n);
-        let mut start = 0;
-        for (k, &np) in points.iter().enumerate() {
-            let (t_lo, t_hi) = (t_s[start], t_s[start + np]);
-            let mut at = t_lo;
-            for w in &Lgr::new(np).weights {
-                cell_start_s.push(at);
-                cell_interval.push(k);
-                at += 0.5 * (t_hi - t_lo) * w;
-            }
-            start += np;
-        }
+        let (cell_start_s, cell_interval) = cells(t_s, interval_points);
         let act: Vec<Activity> = values[..n].iter().map(|&v| activity(v, lo, hi)).collect();
         let bound = |a: Activity| match a {
             Activity::Lower => Some(lo),

@@ -13,8 +13,7 @@
 //! - a single interior point between runs on the *same* bound, or at an end
 //!   next to a bound run, is absorbed into that bound's arc.
 
-use crate::collocation::control_profile::{activity, Activity};
-use crate::collocation::radau::Lgr;
+use crate::collocation::control_profile::{self, activity, Activity};
 
 /// What a control is on one arc.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -27,10 +26,10 @@ pub enum ArcKind {
 
 /// One arc of a control.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Arc<K = ArcKind> {
+pub struct Arc {
     pub t_start_s: f64,
     pub t_end_s: f64,
-    pub kind: K,
+    pub kind: ArcKind,
 }
 
 /// The arcs of the control `values` (one per collocation point, N) on the mesh
@@ -105,30 +104,13 @@ fn push(arcs: &mut Vec<Arc>, t0: f64, t1: f64, kind: ArcKind) {
 
 /// The start of every point's quadrature cell (module docs).
 fn cells(t_s: &[f64], interval_points: &[usize]) -> Vec<f64> {
-    let n = t_s.len() - 1;
-    let whole = [n];
-    let points = if interval_points.is_empty() {
-        &whole[..]
-    } else {
-        interval_points
-    };
-    let mut out = Vec::with_capacity(n);
-    let mut start = 0;
-    for &np in points {
-        let (t_lo, t_hi) = (t_s[start], t_s[start + np]);
-        let mut at = t_lo;
-        for w in &Lgr::new(np).weights {
-            out.push(at);
-            at += 0.5 * (t_hi - t_lo) * w;
-        }
-        start += np;
-    }
-    out
+    control_profile::cells(t_s, interval_points).0
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::collocation::radau::Lgr;
 
     /// A known bang–bang control, T = hi on [0, 3), lo on [3, 7), hi after,
     /// sampled as a collocation would report it: each point's value is its

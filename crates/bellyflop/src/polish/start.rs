@@ -54,7 +54,7 @@ pub fn start(model: &Model, sol: &Solution) -> (Layout, Vec<f64>) {
     let spans = cut(&merge(&thrust, &rate));
     let segments: Vec<Segment> = spans
         .iter()
-        .map(|&(t0, t1, (thrust, _))| {
+        .map(|&(t0, t1, thrust)| {
             let d_max_s = longest(t1 - t0);
             Segment {
                 thrust,
@@ -79,9 +79,9 @@ pub fn start(model: &Model, sol: &Solution) -> (Layout, Vec<f64>) {
     (layout, p)
 }
 
-/// The arcs of T and of χ together: a span at every boundary of either,
-/// with the kind of each on it (the polish uses the thrust's).
-fn merge(thrust: &[Arc], rate: &[Arc]) -> Vec<Arc<(ArcKind, ArcKind)>> {
+/// The thrust's arcs cut at every boundary of the rate's too, each span
+/// with the thrust's kind on it.
+fn merge(thrust: &[Arc], rate: &[Arc]) -> Vec<Arc> {
     let mut cuts: Vec<f64> = thrust
         .iter()
         .chain(rate)
@@ -101,7 +101,7 @@ fn merge(thrust: &[Arc], rate: &[Arc]) -> Vec<Arc<(ArcKind, ArcKind)>> {
             Arc {
                 t_start_s: w[0],
                 t_end_s: w[1],
-                kind: (kind_at(thrust, mid), kind_at(rate, mid)),
+                kind: kind_at(thrust, mid),
             }
         })
         .collect()
@@ -109,7 +109,7 @@ fn merge(thrust: &[Arc], rate: &[Arc]) -> Vec<Arc<(ArcKind, ArcKind)>> {
 
 /// The arcs cut into segments of at most [`MAX_SEGMENT_S`], equal within an
 /// arc: (t_start, t_end, kind).
-fn cut<K: Copy>(arcs: &[Arc<K>]) -> Vec<(f64, f64, K)> {
+fn cut(arcs: &[Arc]) -> Vec<(f64, f64, ArcKind)> {
     let mut out = Vec::new();
     for a in arcs {
         let len = a.t_end_s - a.t_start_s;
