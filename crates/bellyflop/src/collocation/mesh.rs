@@ -22,7 +22,7 @@
 //! cost of one subproblem grows linearly in N instead of cubically). M = 1 is
 //! exactly the paper's global mesh.
 
-use crate::collocation::radau::{interpolate, Lgr};
+use crate::collocation::radau::{interpolate, interpolate_by, Lgr};
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::Discretization;
 
@@ -201,6 +201,27 @@ impl Mesh {
             &self.nodes[r.clone()],
             &iv.lgr.control_bary,
             &values[r],
+            tau,
+        )
+    }
+
+    /// [`Self::interpolate_states`] with node k's value given by
+    /// `value(k)`, called only on the interval of `tau` (no buffer).
+    pub fn interpolate_states_by(&self, value: impl Fn(usize) -> f64, tau: f64) -> f64 {
+        let iv = &self.intervals[self.interval_of(tau)];
+        let r = iv.start..=iv.start + iv.points;
+        interpolate_by(&self.nodes[r], &iv.lgr.bary, |j| value(iv.start + j), tau)
+    }
+
+    /// [`Self::interpolate_controls`] with collocation point i's value
+    /// given by `value(i)`, called only on the interval of `tau`.
+    pub fn interpolate_controls_by(&self, value: impl Fn(usize) -> f64, tau: f64) -> f64 {
+        let iv = &self.intervals[self.interval_of(tau)];
+        let r = iv.start..iv.start + iv.points;
+        interpolate_by(
+            &self.nodes[r],
+            &iv.lgr.control_bary,
+            |j| value(iv.start + j),
             tau,
         )
     }

@@ -60,13 +60,8 @@ impl Plan {
     /// LCvx state (x, z, Vx, Vz, θ, w, ω, δ) at time `t_s`.
     pub fn state_at(&self, t_s: f64) -> [f64; NX] {
         let tau = self.tau(t_s);
-        let mut col = vec![0.0; self.mesh.n + 1];
-        std::array::from_fn(|c| {
-            for (v, x) in col.iter_mut().zip(&self.trajectory.x) {
-                *v = x[c];
-            }
-            self.mesh.interpolate_states(&col, tau)
-        })
+        let x = &self.trajectory.x;
+        std::array::from_fn(|c| self.mesh.interpolate_states_by(|k| x[k][c], tau))
     }
 
     /// Thrust-per-mass components (Txm, Tzm, σ) and gimbal rate χ at `t_s`,
@@ -77,17 +72,12 @@ impl Plan {
         let tau = self.tau(t_s).min(self.mesh.nodes[n - 1]);
         let nu = dynamics::control_dim(self.form);
         let t = &self.trajectory;
-        let comps: Vec<(f64, f64, f64)> = (0..n)
-            .map(|i| dynamics::thrust_components(self.form, &t.x[i], &t.u[i][..nu]))
-            .collect();
-        let interp = |f: &dyn Fn(usize) -> f64| {
-            let v: Vec<f64> = (0..n).map(f).collect();
-            self.mesh.interpolate_controls(&v, tau)
-        };
+        let comps = |i: usize| dynamics::thrust_components(self.form, &t.x[i], &t.u[i][..nu]);
+        let interp = |f: &dyn Fn(usize) -> f64| self.mesh.interpolate_controls_by(f, tau);
         (
-            interp(&|i| comps[i].0),
-            interp(&|i| comps[i].1),
-            interp(&|i| comps[i].2),
+            interp(&|i| comps(i).0),
+            interp(&|i| comps(i).1),
+            interp(&|i| comps(i).2),
             interp(&|i| t.u[i][nu - 1]),
         )
     }

@@ -185,17 +185,24 @@ pub fn barycentric_weights(points: &[f64]) -> Vec<f64> {
 /// evaluating the polynomial of degree < `points.len()` that takes `values`
 /// at `points`. Returns the node value exactly when `tau` equals a node.
 pub fn interpolate(points: &[f64], bary: &[f64], values: &[f64], tau: f64) -> f64 {
-    assert_eq!(points.len(), bary.len());
     assert_eq!(points.len(), values.len());
+    interpolate_by(points, bary, |j| values[j], tau)
+}
+
+/// [`interpolate`] with the value at point j given by `value(j)`: the same
+/// sums in the same order, for callers that would otherwise gather the
+/// values into a buffer (no allocation in a re-plan).
+pub fn interpolate_by(points: &[f64], bary: &[f64], value: impl Fn(usize) -> f64, tau: f64) -> f64 {
+    assert_eq!(points.len(), bary.len());
     let mut num = 0.0;
     let mut den = 0.0;
-    for ((&x, &b), &v) in points.iter().zip(bary).zip(values) {
+    for (j, (&x, &b)) in points.iter().zip(bary).enumerate() {
         let dx = tau - x;
         if dx == 0.0 {
-            return v;
+            return value(j);
         }
         let c = b / dx;
-        num += c * v;
+        num += c * value(j);
         den += c;
     }
     num / den

@@ -281,22 +281,26 @@ fn discretization(d: &Discretization) -> Result<(), InputError> {
                 ),
             });
         }
-        let checks: [(bool, &str, f64, String); 2] = [
+        let checks: [Check<'_>; 2] = [
             (
                 d.nodes == total,
                 "discretization.nodes",
                 d.nodes as f64,
-                format!(
+                &|| {
+                    format!(
                     "must equal the sum of discretization.mesh.points, {total} (N counts the mesh's points)"
-                ),
+                )
+                },
             ),
             (
                 d.intervals == m,
                 "discretization.intervals",
                 d.intervals as f64,
-                format!(
+                &|| {
+                    format!(
                     "must equal the number of intervals of discretization.mesh, {m} (the entries of its points)"
-                ),
+                )
+                },
             ),
         ];
         first_inconsistency(checks)?;
@@ -516,36 +520,34 @@ pub fn solver(s: &SolverSettings) -> Result<(), InputError> {
 /// The trust-region update rule of Mao, Szmuk and Açıkmeşe (2016):
 /// ρ0 < ρ1 < ρ2 and r_min ≤ r_initial ≤ r_max.
 fn solver_consistency(sv: &SolverSettings) -> Result<(), InputError> {
-    let checks: [(bool, &str, f64, String); 4] = [
-        (
-            sv.rho0 < sv.rho1,
-            "solver.rho1",
-            sv.rho1,
-            format!("must be greater than solver.rho0 = {}", sv.rho0),
-        ),
-        (
-            sv.rho1 < sv.rho2,
-            "solver.rho2",
-            sv.rho2,
-            format!("must be greater than solver.rho1 = {}", sv.rho1),
-        ),
+    let checks: [Check<'_>; 4] = [
+        (sv.rho0 < sv.rho1, "solver.rho1", sv.rho1, &|| {
+            format!("must be greater than solver.rho0 = {}", sv.rho0)
+        }),
+        (sv.rho1 < sv.rho2, "solver.rho2", sv.rho2, &|| {
+            format!("must be greater than solver.rho1 = {}", sv.rho1)
+        }),
         (
             sv.trust_region_min <= sv.trust_region_initial,
             "solver.trust_region_initial",
             sv.trust_region_initial,
-            format!(
-                "must be at least solver.trust_region_min = {}",
-                sv.trust_region_min
-            ),
+            &|| {
+                format!(
+                    "must be at least solver.trust_region_min = {}",
+                    sv.trust_region_min
+                )
+            },
         ),
         (
             sv.trust_region_initial <= sv.trust_region_max,
             "solver.trust_region_initial",
             sv.trust_region_initial,
-            format!(
-                "must be at most solver.trust_region_max = {}",
-                sv.trust_region_max
-            ),
+            &|| {
+                format!(
+                    "must be at most solver.trust_region_max = {}",
+                    sv.trust_region_max
+                )
+            },
         ),
     ];
     first_inconsistency(checks)
@@ -572,85 +574,92 @@ fn consistency(s: &Scenario) -> Result<(), InputError> {
         (1.0 - CG_FRACTION_MIN) * v.length_m,
     );
 
-    let checks: [(bool, &str, f64, String); 7] = [
+    let checks: [Check<'_>; 7] = [
         (
             v.min_thrust_n <= v.max_thrust_n,
             "vehicle.min_thrust_n",
             v.min_thrust_n,
-            format!(
-                "must not exceed vehicle.max_thrust_n = {} N",
-                v.max_thrust_n
-            ),
+            &|| {
+                format!(
+                    "must not exceed vehicle.max_thrust_n = {} N",
+                    v.max_thrust_n
+                )
+            },
         ),
         (
             v.dry_mass_kg < i.mass_kg,
             "vehicle.dry_mass_kg",
             v.dry_mass_kg,
-            format!(
-                "dry mass {} kg must be below initial.mass_kg = {} kg (no propellant left)",
-                v.dry_mass_kg, i.mass_kg
-            ),
+            &|| {
+                format!(
+                    "dry mass {} kg must be below initial.mass_kg = {} kg (no propellant left)",
+                    v.dry_mass_kg, i.mass_kg
+                )
+            },
         ),
         (
             v.dry_mass_kg <= d.final_mass_guess_kg && d.final_mass_guess_kg <= i.mass_kg,
             "discretization.final_mass_guess_kg",
             d.final_mass_guess_kg,
-            format!(
-                "must lie in [vehicle.dry_mass_kg, initial.mass_kg] = [{}, {}] kg",
-                v.dry_mass_kg, i.mass_kg
-            ),
+            &|| {
+                format!(
+                    "must lie in [vehicle.dry_mass_kg, initial.mass_kg] = [{}, {}] kg",
+                    v.dry_mass_kg, i.mass_kg
+                )
+            },
         ),
         (
             (cg_lo..=cg_hi).contains(&v.cg_m),
             "vehicle.cg_m",
             v.cg_m,
-            format!(
+            &|| {
+                format!(
                 "must lie in [{cg_lo:.4}, {cg_hi:.4}] m (between {CG_FRACTION_MIN:.3} and {:.3} of vehicle.length_m = {} m): the pitch inertia of Eq. 22 is that of a body spread over its whole length, which no mass distribution with its centre of mass nearer an end has",
                 1.0 - CG_FRACTION_MIN,
                 v.length_m
-            ),
+            )
+            },
         ),
-        (
-            v.cp_m <= v.length_m,
-            "vehicle.cp_m",
-            v.cp_m,
+        (v.cp_m <= v.length_m, "vehicle.cp_m", v.cp_m, &|| {
             format!(
                 "centre of pressure lies beyond the body: vehicle.length_m = {} m",
                 v.length_m
-            ),
-        ),
+            )
+        }),
         (
             i.gimbal_deg.abs() <= v.max_gimbal_deg,
             "initial.gimbal_deg",
             i.gimbal_deg,
-            format!(
-                "|gimbal| must not exceed vehicle.max_gimbal_deg = {} deg",
-                v.max_gimbal_deg
-            ),
+            &|| {
+                format!(
+                    "|gimbal| must not exceed vehicle.max_gimbal_deg = {} deg",
+                    v.max_gimbal_deg
+                )
+            },
         ),
-        (
-            i.z_m > t.z_m,
-            "initial.z_m",
-            i.z_m,
+        (i.z_m > t.z_m, "initial.z_m", i.z_m, &|| {
             format!(
                 "must be above terminal.z_m = {} m (the burn starts above the landing point)",
                 t.z_m
-            ),
-        ),
+            )
+        }),
     ];
     first_inconsistency(checks)
 }
 
+/// A cross-field check: whether it holds, the field, its value, and the
+/// reason, written only when it fails (validation runs in every re-plan,
+/// which must not allocate).
+type Check<'a> = (bool, &'a str, f64, &'a dyn Fn() -> String);
+
 /// The first failed cross-field check of (holds, field, value, reason), as
 /// [`InputError::Inconsistent`].
-fn first_inconsistency<const N: usize>(
-    checks: [(bool, &str, f64, String); N],
-) -> Result<(), InputError> {
+fn first_inconsistency<const N: usize>(checks: [Check<'_>; N]) -> Result<(), InputError> {
     match checks.into_iter().find(|(ok, ..)| !ok) {
         Some((_, field, value, reason)) => Err(InputError::Inconsistent {
             field: field.into(),
             value,
-            reason,
+            reason: reason(),
         }),
         None => Ok(()),
     }
