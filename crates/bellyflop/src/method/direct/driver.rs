@@ -12,7 +12,7 @@ use crate::method::direct::barrier::Barrier;
 use crate::method::direct::inertia::InertiaCorrection;
 use crate::method::direct::iterate::{inf_norm, l1_norm, Iterate};
 use crate::method::direct::line_search::{FilterLineSearch, LineSearch};
-use crate::method::direct::newton::Newton;
+use crate::method::direct::newton::{Newton, Storage};
 use crate::method::direct::nlp::{Duals, Nlp};
 use crate::method::direct::restoration::Restoration;
 use crate::method::observer::{deadline_message, Iteration, Observer};
@@ -75,10 +75,19 @@ pub(super) struct Driver<'a> {
 
 impl<'a> Driver<'a> {
     pub(super) fn new(nlp: &'a Nlp, settings: &'a DirectSettings) -> Self {
+        Driver::with_storage(nlp, settings, Storage::new(nlp))
+    }
+
+    /// A driver whose Newton system lives in `storage` (made for `nlp`).
+    pub(super) fn with_storage(
+        nlp: &'a Nlp,
+        settings: &'a DirectSettings,
+        storage: Storage,
+    ) -> Self {
         Driver {
             nlp,
             settings,
-            sys: Newton::new(nlp),
+            sys: Newton::with_storage(nlp, storage),
             barrier: Barrier::new(settings),
             inertia: InertiaCorrection::default(),
             search: FilterLineSearch::new(),
@@ -92,7 +101,16 @@ impl<'a> Driver<'a> {
         self.nlp.physical(crate::method::direct::nlp::slot::M, w[k])
     }
 
-    pub(super) fn run(mut self, start: Start, observer: &mut dyn Observer) -> NlpResult {
+    pub(super) fn run(self, start: Start, observer: &mut dyn Observer) -> NlpResult {
+        self.run_keeping(start, observer).0
+    }
+
+    /// [`Self::run`], and the Newton system's storage for the next solve.
+    pub(super) fn run_keeping(
+        mut self,
+        start: Start,
+        observer: &mut dyn Observer,
+    ) -> (NlpResult, Storage) {
         let mut it = self.initial_iterate(start);
         let mut history = Vec::with_capacity(self.settings.max_iterations);
         let mut outcome: Option<Outcome> = None;
@@ -127,7 +145,8 @@ impl<'a> Driver<'a> {
                 break;
             }
         }
-        self.finish(it, outcome, history)
+        let result = self.finish(it, outcome, history);
+        (result, self.sys.into_storage())
     }
 
     /// The starting iterate (§3.6): the point pushed inside its bounds, the
@@ -255,7 +274,7 @@ impl<'a> Driver<'a> {
 
     /// The answer: the last iterate, its defect and how the solve ended.
     fn finish(
-        mut self,
+        &mut self,
         it: Iterate,
         outcome: Option<Outcome>,
         history: Vec<DirectIteration>,

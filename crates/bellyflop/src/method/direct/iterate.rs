@@ -35,6 +35,23 @@ impl Bounds {
         }
     }
 
+    /// Set to `nlp`'s bounds in place (as [`Bounds::new`], without
+    /// allocating once the vectors have their size).
+    pub(super) fn refill(&mut self, nlp: &Nlp) {
+        let n = nlp.n_var();
+        self.free.clear();
+        self.free.extend((0..n).map(|j| !nlp.is_fixed(j)));
+        let free = &self.free;
+        self.has_lo.clear();
+        self.has_lo
+            .extend((0..n).map(|j| free[j] && nlp.lo[j].is_finite()));
+        self.has_hi.clear();
+        self.has_hi
+            .extend((0..n).map(|j| free[j] && nlp.hi[j].is_finite()));
+        self.lo.clone_from(&nlp.lo);
+        self.hi.clone_from(&nlp.hi);
+    }
+
     /// Push a point strictly inside the bounds by `push` (relative, §3.6)
     /// and set fixed values.
     pub(super) fn push_inside(&self, w: &mut [f64], push: f64) {

@@ -51,6 +51,7 @@ use crate::method::direct::driver::Driver;
 pub use crate::method::direct::driver::{NlpResult, Start};
 use crate::method::direct::iterate::inf_norm;
 pub use crate::method::direct::newton::lagrangian_blocks;
+use crate::method::direct::newton::Storage;
 use crate::method::direct::nlp::Duals;
 use crate::method::direct::nlp::{Nlp, NL, NS};
 use crate::method::observer::Observer;
@@ -240,8 +241,22 @@ pub fn solve_from_start(
     start_point: Start,
     observer: &mut dyn Observer,
 ) -> (crate::Solution, Duals) {
+    let (sol, duals, _) = solve_in(settings, nlp, start_point, observer, Storage::new(nlp));
+    (sol, duals)
+}
+
+/// [`solve_from_start`] with the Newton system in `storage` (made for
+/// `nlp`), which comes back for the next solve of the same structure.
+pub(super) fn solve_in(
+    settings: &SolverSettings,
+    nlp: &Nlp,
+    start_point: Start,
+    observer: &mut dyn Observer,
+    storage: Storage,
+) -> (crate::Solution, Duals, Storage) {
     let start = Instant::now();
-    let r = Driver::new(nlp, &settings.direct).run(start_point, observer);
+    let (r, storage) =
+        Driver::with_storage(nlp, &settings.direct, storage).run_keeping(start_point, observer);
     let ms = start.elapsed().as_secs_f64() * 1e3;
     let checks = checks(nlp, &r.w);
     let (mut status, mut message) = (r.status, r.message);
@@ -274,7 +289,7 @@ pub fn solve_from_start(
         zl: r.zl,
         zu: r.zu,
     };
-    (sol, duals)
+    (sol, duals, storage)
 }
 
 #[cfg(test)]

@@ -130,6 +130,80 @@ impl Workspace {
     }
 }
 
+impl Workspace {
+    /// Back to the state of [`Workspace::new`] for an NLP of the same
+    /// structure ([`KktSolver::fits`]).
+    fn reset(&mut self) {
+        self.kkt.reset();
+        self.solver.reset();
+        self.derivs.fill(PointDerivatives {
+            f: [0.0; NS],
+            jac: [[0.0; NL]; NS],
+            hess: [[0.0; NL]; NL],
+        });
+        self.jac.fill([[0.0; NL]; NS]);
+        for v in [
+            &mut self.c,
+            &mut self.c_trial,
+            &mut self.grad,
+            &mut self.rw,
+            &mut self.rl,
+            &mut self.dw,
+            &mut self.dl,
+            &mut self.res_w,
+            &mut self.res_l,
+            &mut self.cor_w,
+            &mut self.cor_l,
+            &mut self.trial,
+            &mut self.w_old,
+            &mut self.step_w,
+            &mut self.step_l,
+            &mut self.dzl,
+            &mut self.dzu,
+            &mut self.c_soc,
+        ] {
+            v.fill(0.0);
+        }
+    }
+}
+
+/// The storage of a Newton system: its workspace and the bounds, kept
+/// between the solves of a re-plan sequence so that a re-plan allocates
+/// none of it ([`Storage::reuse_for`]).
+pub struct Storage {
+    ws: Workspace,
+    bounds: Bounds,
+}
+
+impl Storage {
+    /// Storage for `nlp`.
+    pub fn new(nlp: &Nlp) -> Storage {
+        Storage {
+            ws: Workspace::new(nlp),
+            bounds: Bounds::new(nlp),
+        }
+    }
+
+    /// This storage, reset to [`Storage::new`]'s state, for `nlp` when its
+    /// structure fits (the same mesh and fixed variables); else new storage.
+    pub fn reuse_for(mut self, nlp: &Nlp) -> Storage {
+        if !self.ws.solver.fits(nlp) || self.ws.c.len() != nlp.n_con() {
+            return Storage::new(nlp);
+        }
+        self.ws.reset();
+        self.bounds.refill(nlp);
+        self
+    }
+}
+
+impl std::fmt::Debug for Storage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Storage")
+            .field("variables", &self.bounds.lo.len())
+            .finish_non_exhaustive()
+    }
+}
+
 /// The barrier problem of P2 at an iterate, and its Newton system.
 pub(super) struct Newton<'a> {
     pub(super) nlp: &'a Nlp,
@@ -140,13 +214,23 @@ pub(super) struct Newton<'a> {
 }
 
 impl<'a> Newton<'a> {
-    pub(super) fn new(nlp: &'a Nlp) -> Self {
+    /// The system of `nlp` in `storage` (made for `nlp`:
+    /// [`Storage::new`] or [`Storage::reuse_for`]).
+    pub(super) fn with_storage(nlp: &'a Nlp, storage: Storage) -> Self {
         let nv = nlp.n_var();
         Newton {
             nlp,
-            ws: Workspace::new(nlp),
-            bounds: Bounds::new(nlp),
+            ws: storage.ws,
+            bounds: storage.bounds,
             n_primal: (0..nv).filter(|&j| !nlp.is_fixed(j)).count(),
+        }
+    }
+
+    /// Its storage, for the next solve of the same structure.
+    pub(super) fn into_storage(self) -> Storage {
+        Storage {
+            ws: self.ws,
+            bounds: self.bounds,
         }
     }
 

@@ -143,8 +143,41 @@ impl Nlp {
     /// The transcription of a validated scenario on its mesh, with the
     /// ground bound z ≥ z_f at every node and the soft terms of `sv`.
     pub fn new(s: &Scenario, sv: &SolverSettings) -> Self {
-        let d = &s.discretization;
-        let mesh = d.collocation_mesh();
+        let mesh = s.discretization.collocation_mesh();
+        let n = mesh.n;
+        let mut d_cols = vec![Vec::new(); n + 1];
+        for row in 0..n {
+            let (first, entries) = mesh.d_row(row);
+            for (j, &v) in entries.iter().enumerate() {
+                if v != 0.0 {
+                    d_cols[first + j].push((row, v));
+                }
+            }
+        }
+        let mut nlp = Nlp {
+            model: Model::new(&s.vehicle, &s.environment),
+            mesh,
+            n,
+            offset: [0.0; NL],
+            scale: [1.0; NL],
+            tf_scale: 1.0,
+            lo: vec![],
+            hi: vec![],
+            x0: [0.0; NS],
+            xf: [0.0; 6],
+            d_cols,
+            soft: SoftTerms::default(),
+        };
+        nlp.refresh(s, sv);
+        nlp
+    }
+
+    /// Set everything but the mesh (and D's columns) from `s` and `sv`:
+    /// the model, the scaling, the boundary states, the soft terms and the
+    /// bounds, in place. `s` must have this NLP's mesh: a re-plan reuses
+    /// its NLP this way, with no allocation
+    /// ([`crate::method::direct::solver::DirectSolver`]).
+    pub fn refresh(&mut self, s: &Scenario, sv: &SolverSettings) {
         let model = Model::new(&s.vehicle, &s.environment);
         let sc = Scaling::new(s, &model, Formulation::Exact);
         let (i, t) = (&s.initial, &s.terminal);
@@ -159,49 +192,30 @@ impl Nlp {
         scale[slot::ABOVE] = model.max_thrust_n;
         scale[slot::BELOW] = model.max_thrust_n;
         scale[slot::CHI] = model.max_gimbal_rate_radps;
-        let x0 = i.state_si();
-        let xf = t.state_si();
-        let n = d.nodes;
-        let mut d_cols = vec![Vec::new(); n + 1];
-        for row in 0..n {
-            let (first, entries) = mesh.d_row(row);
-            for (j, &v) in entries.iter().enumerate() {
-                if v != 0.0 {
-                    d_cols[first + j].push((row, v));
-                }
-            }
-        }
-        let mut nlp = Nlp {
-            model,
-            mesh,
-            n,
-            offset,
-            scale,
-            tf_scale: sc.tf_scale,
-            lo: vec![],
-            hi: vec![],
-            x0,
-            xf,
-            d_cols,
-            soft: SoftTerms::default(),
-        };
-        let (t_min, t_max) = (nlp.model.min_thrust_n, nlp.model.max_thrust_n);
+        self.model = model;
+        self.offset = offset;
+        self.scale = scale;
+        self.tf_scale = sc.tf_scale;
+        self.x0 = i.state_si();
+        self.xf = t.state_si();
+        self.soft = SoftTerms::default();
+        let (t_min, t_max) = (self.model.min_thrust_n, self.model.max_thrust_n);
         if sv.thrust_margin_frac > 0.0 {
-            nlp.soft.margin_weight = sv.thrust_margin_weight;
-            nlp.soft.margin_band_n = (
+            self.soft.margin_weight = sv.thrust_margin_weight;
+            self.soft.margin_band_n = (
                 t_min * (1.0 + sv.thrust_margin_frac),
                 t_max * (1.0 - sv.thrust_margin_frac),
             );
         }
         if sv.terminal_lateral_weight > 0.0 {
-            nlp.soft.lateral_weight = sv.terminal_lateral_weight;
-            nlp.soft.lateral_target = (
-                nlp.scaled(slot::X, xf[slot::X]),
-                nlp.scaled(slot::VX, xf[slot::VX]),
+            self.soft.lateral_weight = sv.terminal_lateral_weight;
+            let xf = self.xf;
+            self.soft.lateral_target = (
+                self.scaled(slot::X, xf[slot::X]),
+                self.scaled(slot::VX, xf[slot::VX]),
             );
         }
-        nlp.set_bounds(t.z_m);
-        nlp
+        self.set_bounds(t.z_m);
     }
 
     /// Index of slot `s` of node `k` in the full vector.
@@ -239,9 +253,14 @@ impl Nlp {
     }
 
     fn set_bounds(&mut self, z_ground_m: f64) {
+        let nv = self.n_var();
+        // Refilled in place: no allocation once the vectors have their size.
+        let (mut lo, mut hi) = (std::mem::take(&mut self.lo), std::mem::take(&mut self.hi));
+        lo.clear();
+        lo.resize(nv, f64::NEG_INFINITY);
+        hi.clear();
+        hi.resize(nv, f64::INFINITY);
         let (n, m) = (self.n, &self.model);
-        let mut lo = vec![f64::NEG_INFINITY; self.n_var()];
-        let mut hi = vec![f64::INFINITY; self.n_var()];
         let set = |lo: &mut Vec<f64>, hi: &mut Vec<f64>, k: usize, s: usize, a: f64, b: f64| {
             let j = k * NL + s;
             lo[j] = (a - self.offset[s]) / self.scale[s];

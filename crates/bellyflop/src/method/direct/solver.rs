@@ -7,6 +7,7 @@ use crate::collocation::trajectory::Trajectory;
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::Scenario;
 use crate::input::settings::{Formulation, SolverSettings};
+use crate::method::direct::newton::Storage;
 use crate::method::direct::nlp::{Duals, Nlp};
 use crate::method::direct::{self, Start as DirectStart};
 use crate::method::observer::Observer;
@@ -29,10 +30,25 @@ pub const WARM_PD_MU: f64 = 1e-8;
 /// then crashed 7 m off the pad).
 pub const BASIN_TOLERANCE_KG: f64 = 300.0;
 
-/// The direct method, with the multipliers of its last answer.
+/// The direct method, with the multipliers of its last answer and the
+/// storage of its last re-plan.
 #[derive(Debug, Default)]
 pub struct DirectSolver {
     last: Option<Kept>,
+    replan: Option<ReplanWork>,
+}
+
+/// What a re-plan leaves for the next one of the same discretization: its
+/// NLP (refreshed with the next scenario, [`Nlp::refresh`]) and its Newton
+/// system's storage (reset, [`Storage::reuse_for`]), so that a re-plan
+/// builds neither (issue 27: no allocation in a flight loop's re-plan).
+#[derive(Debug)]
+struct ReplanWork {
+    nodes: usize,
+    intervals: usize,
+    layout: Option<MeshLayout>,
+    nlp: Nlp,
+    storage: Storage,
 }
 
 /// An answer's NLP and multipliers, and what identifies that answer.
@@ -86,7 +102,7 @@ impl Solver for DirectSolver {
             }
             Start::Replan(replan) => {
                 self.last = None;
-                self::replan(scenario, settings, &replan, observer)
+                self.replan(scenario, settings, &replan, observer)
             }
         }
     }
@@ -131,28 +147,84 @@ impl DirectSolver {
     }
 }
 
-/// A direct re-plan: the interior-point method from the shifted plan (its
-/// states and controls on the new mesh, [`shifted_reference`]), at μ_0 =
-/// [`direct::WARM_MU`], within [`Replan::direct_max_iterations`]; a cold
-/// solve too when the warm one lands far below the plan's prediction.
-fn replan(
+impl DirectSolver {
+    /// The last re-plan's NLP and storage, refreshed for `s` when it has
+    /// the same discretization; else new ones.
+    fn replan_work(&mut self, s: &Scenario, sv: &SolverSettings) -> ReplanWork {
+        let d = &s.discretization;
+        match self.replan.take() {
+            Some(mut w)
+                if w.nodes == d.nodes && w.intervals == d.intervals && w.layout == d.mesh =>
+            {
+                w.nlp.refresh(s, sv);
+                w.storage = w.storage.reuse_for(&w.nlp);
+                w
+            }
+            _ => {
+                let nlp = Nlp::new(s, sv);
+                ReplanWork {
+                    nodes: d.nodes,
+                    intervals: d.intervals,
+                    layout: d.mesh.clone(),
+                    storage: Storage::new(&nlp),
+                    nlp,
+                }
+            }
+        }
+    }
+
+    /// A direct re-plan: the interior-point method from the shifted plan
+    /// (its states and controls on the new mesh, [`shifted_reference`]), at
+    /// μ_0 = [`direct::WARM_MU`], within [`Replan::direct_max_iterations`];
+    /// a cold solve too when the warm one lands far below the plan's
+    /// prediction.
+    fn replan(
+        &mut self,
+        s: &Scenario,
+        settings: &SolverSettings,
+        replan: &Replan<'_>,
+        observer: &mut dyn Observer,
+    ) -> Solution {
+        let mut sv = settings.clone();
+        sv.formulation = Formulation::Exact;
+        sv.direct.mu_init = direct::WARM_MU;
+        sv.direct.max_iterations = replan.direct_max_iterations;
+        let mut work = self.replan_work(s, &sv);
+        let (warm, storage) = warm_replan(s, &sv, replan, &work.nlp, work.storage, observer);
+        work.storage = storage;
+        self.replan = Some(work);
+        basin_check(s, &sv, warm, observer)
+    }
+}
+
+/// The warm solve of a re-plan on `nlp` (refreshed for `s`), in `storage`.
+fn warm_replan(
     s: &Scenario,
-    settings: &SolverSettings,
+    sv: &SolverSettings,
     replan: &Replan<'_>,
+    nlp: &Nlp,
+    storage: Storage,
     observer: &mut dyn Observer,
-) -> Solution {
+) -> (Solution, Storage) {
     let (plan, elapsed_s) = (replan.plan, replan.elapsed_s);
-    let mut sv = settings.clone();
-    sv.formulation = Formulation::Exact;
-    sv.direct.mu_init = direct::WARM_MU;
-    sv.direct.max_iterations = replan.direct_max_iterations;
-    let nlp = Nlp::new(s, &sv);
     let mut x0 = s.initial.state_si();
     x0[ix::OMEGA] = s.initial.mass_kg.ln();
     let mut guess = shifted_reference(plan, elapsed_s, &nlp.mesh, &x0, sv.formulation);
     blend_offset(&mut guess, &plan.state_at(elapsed_s), &nlp.mesh.nodes);
     let w0 = nlp.from_trajectory(&guess);
-    let warm = direct::solve_from(&sv, &nlp, &w0, None, observer);
+    let start = DirectStart::Primal(&w0, None);
+    let (warm, _, storage) = direct::solve_in(sv, nlp, start, observer, storage);
+    (warm, storage)
+}
+
+/// A warm re-plan's answer, or when it lands far below the plan's
+/// prediction, the better of it and a cold solve.
+fn basin_check(
+    s: &Scenario,
+    sv: &SolverSettings,
+    warm: Solution,
+    observer: &mut dyn Observer,
+) -> Solution {
     // By Bellman's principle the new optimum is near the plan's own
     // prediction (the final-mass guess); far below it, the warm start
     // has slid into another basin. Solve cold too and keep the better.
@@ -160,7 +232,7 @@ fn replan(
     if warm.status == Status::Solved && warm.final_mass_kg >= expected_kg - BASIN_TOLERANCE_KG {
         return warm;
     }
-    let cold = direct::solve(s, &sv, observer);
+    let cold = direct::solve(s, sv, observer);
     let better = cold.status == Status::Solved
         && (warm.status != Status::Solved || cold.final_mass_kg > warm.final_mass_kg);
     // Both solves' iterations, warm first, in the history and the count.
@@ -196,6 +268,52 @@ fn blend_offset(guess: &mut Trajectory, planned_now: &[f64; NX], nodes: &[f64]) 
 mod tests {
     use super::*;
     use crate::problem::dynamics::NU_MAX;
+
+    /// A re-plan that reuses the last one's NLP and Newton storage gives
+    /// the answer of one that builds them afresh, bit for bit, along a
+    /// sequence of re-plans from perturbed states (and after a mesh change,
+    /// which must not reuse them).
+    #[test]
+    fn reused_replan_storage_gives_the_fresh_answer_bit_for_bit() {
+        use crate::method::observer::Silent;
+        let base = Scenario::paper();
+        let settings = SolverSettings::default();
+        let cold = direct::solve(&base, &settings, &mut Silent);
+        assert_eq!(cold.status, Status::Solved);
+        let plan = cold.plan();
+        let mut reused = DirectSolver::default();
+        for (k, nodes) in [(1, 20), (2, 20), (3, 16), (4, 20), (5, 20)] {
+            let elapsed_s = 0.4 * k as f64;
+            let x = plan.state_at(elapsed_s);
+            let mut s = base.clone();
+            s.initial = crate::guidance::planner::initial_state(&x);
+            s.initial.x_m += 3.0 * k as f64;
+            s.initial.vz_mps -= 0.5 * k as f64;
+            s.discretization.nodes = nodes;
+            s.discretization.tf_guess_s = plan.tf_s() - elapsed_s;
+            let replan = Replan {
+                plan: &plan,
+                elapsed_s,
+                relaxed_iterations: 0,
+                proximal_weight: 0.0,
+                direct_max_iterations: 40,
+            };
+            let a = reused.solve(&s, &settings, Start::Replan(replan), &mut Silent);
+            let b =
+                DirectSolver::default().solve(&s, &settings, Start::Replan(replan), &mut Silent);
+            assert_eq!(a.status, b.status, "re-plan {k}");
+            assert_eq!(a.iterations, b.iterations, "re-plan {k}");
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            for (x, y) in [
+                (&a.mass_kg, &b.mass_kg),
+                (&a.x_m, &b.x_m),
+                (&a.thrust_n, &b.thrust_n),
+            ] {
+                assert_eq!(bits(x), bits(y), "re-plan {k}");
+            }
+            assert_eq!(a.tf_s.to_bits(), b.tf_s.to_bits(), "re-plan {k}");
+        }
+    }
 
     /// The offset is whole at the first node, gone at the last, and linear
     /// in τ between.

@@ -138,6 +138,21 @@ impl Banded {
         }
     }
 
+    /// Back to the state of [`Banded::new`] (the structure, D's columns
+    /// `v` among it, stays).
+    pub(super) fn reset(&mut self) {
+        for b in &mut self.blocks {
+            for v in [&mut b.a, &mut b.ft, &mut b.y, &mut b.g, &mut b.u, &mut b.w] {
+                v.fill(0.0);
+            }
+        }
+        self.ldlt.reset();
+        self.z = [[0.0; 2]; 2];
+        self.z_inv = [[0.0; 2]; 2];
+        self.p.fill(0.0);
+        self.uh.fill(0.0);
+    }
+
     /// Form and factor R; its inertia, or None when a block's unpivoted
     /// LDLᵀ meets a zero pivot or grows beyond `growth_max`.
     pub(super) fn factor(&mut self, t: &Terms, growth_max: f64) -> Option<Inertia> {

@@ -105,6 +105,15 @@ impl Lblt {
         }
     }
 
+    /// Back to the state of [`Lblt::new`] (faer's scratch is not read
+    /// before it is written, so it stays).
+    pub(super) fn reset(&mut self) {
+        self.a.fill(0.0);
+        self.sub.fill(0.0);
+        self.perm.fill(0);
+        self.perm_inv.fill(0);
+    }
+
     /// Factor the lower triangle of `a` (column-major); returns the inertia.
     pub(super) fn factor(&mut self, n: usize) -> Inertia {
         // faer writes the subdiagonal of 2×2 pivots only.
@@ -159,6 +168,12 @@ impl Ldlt {
             row_growth: vec![0.0; rd],
             buf: MemBuffer::new(req),
         }
+    }
+
+    /// Back to the state of [`Ldlt::new`].
+    pub(super) fn reset(&mut self) {
+        self.row_norm.fill(0.0);
+        self.row_growth.fill(0.0);
     }
 
     /// Factor R in place (`a`: its lower triangle, rd square, column-major),

@@ -100,6 +100,16 @@ impl KktMatrix {
         }
     }
 
+    /// Back to the state of [`Self::zeros`].
+    pub fn reset(&mut self) {
+        self.w.fill([[0.0; NL]; NL]);
+        self.h_t.fill([0.0; NL]);
+        self.h_tt = 0.0;
+        self.b.fill([[0.0; NL]; NS]);
+        self.j_t.fill([0.0; NS]);
+        self.delta_c = 0.0;
+    }
+
     /// The upper triangle of K as triplets (row, column, value) over the
     /// free variables (full-vector order, t̂_f last) and then the
     /// multipliers: the matrix a general sparse LDLᵀ would factor. Returns
@@ -393,6 +403,60 @@ impl KktSolver {
             p: vec![0.0; NR * n * NR * (n + 1)],
             cross: vec![([[0.0; NS]; NS], [[0.0; NS]; NS]); n],
         }
+    }
+
+    /// Whether this solver's structure is `nlp`'s: the same mesh (D's
+    /// columns) and the same fixed variables, the two things [`Self::new`]
+    /// builds its structure from. A re-plan of the same problem keeps
+    /// both, so it can [`Self::reset`] this solver instead of building one.
+    pub fn fits(&self, nlp: &Nlp) -> bool {
+        nlp.n == self.n
+            && (0..=self.n).all(|k| {
+                let free =
+                    |s: usize| !(nlp.is_fixed(nlp.idx(k, s)) || s == slot::X && self.x.at[k]);
+                (0..NL)
+                    .filter(|&s| free(s))
+                    .eq(self.slots[k].iter().copied())
+                    && self.x.at[k] == (k < self.n && !nlp.is_fixed(nlp.idx(k, slot::X)))
+            })
+            && nlp
+                .d_cols
+                .iter()
+                .enumerate()
+                .all(|(k, col)| col.iter().all(|&(i, v)| self.d[k * self.n + i] == v))
+            && self.d.iter().filter(|&&v| v != 0.0).count()
+                == nlp.d_cols.iter().map(Vec::len).sum::<usize>()
+    }
+
+    /// Back to the state of [`Self::new`] for the same structure: every
+    /// factor and work vector zero, the growth limit and the path as new.
+    pub fn reset(&mut self) {
+        self.m_inv.fill([[0.0; NL]; NL]);
+        self.node.reset();
+        self.reduced.reset();
+        self.unpivoted.reset();
+        if let Some(b) = &mut self.banded {
+            b.reset();
+        }
+        self.q.fill([[0.0; NR]; NR]);
+        self.growth_max = GROWTH_MAX;
+        self.path = ReducedPath::BunchKaufman;
+        for v in [&mut self.r_tmp, &mut self.y_tmp, &mut self.e, &mut self.me] {
+            v.fill([0.0; NL]);
+        }
+        for v in [
+            &mut self.rhs,
+            &mut self.by_state,
+            &mut self.xq,
+            &mut self.xv,
+            &mut self.xe,
+            &mut self.s_nu,
+            &mut self.rt,
+            &mut self.p,
+        ] {
+            v.fill(0.0);
+        }
+        self.cross.fill(([[0.0; NS]; NS], [[0.0; NS]; NS]));
     }
 
     /// The kept multipliers and ν: R without t̂_f.
