@@ -277,19 +277,32 @@ pub struct Solution {
 /// alone would leave the engine's range: the mass falls after the last
 /// point, so a σ at T_min/m gave 2,209,399 N against T_min = 2,210,000 N.)
 pub fn node_thrust_n(model: &Model, form: Formulation, t: &Trajectory) -> Vec<f64> {
+    node_thrusts(model, form, t).collect()
+}
+
+/// The values of [`node_thrust_n`], in node order.
+fn node_thrusts<'a>(
+    model: &Model,
+    form: Formulation,
+    t: &'a Trajectory,
+) -> impl Iterator<Item = f64> + 'a {
     let n = t.u.len();
     let si = dynamics::sigma_index(form);
     let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
-    (0..=n)
-        .map(|k| {
-            let thrust = t.u[k.min(n - 1)][si] * t.x[k][ix::OMEGA].exp();
-            if k == n {
-                thrust.clamp(lo, hi)
-            } else {
-                thrust
-            }
-        })
-        .collect()
+    (0..=n).map(move |k| {
+        let thrust = t.u[k.min(n - 1)][si] * t.x[k][ix::OMEGA].exp();
+        if k == n {
+            thrust.clamp(lo, hi)
+        } else {
+            thrust
+        }
+    })
+}
+
+/// `v` emptied and refilled from `values`, in its own storage.
+fn refill_with(v: &mut Vec<f64>, values: impl Iterator<Item = f64>) {
+    v.clear();
+    v.extend(values);
 }
 
 /// How a method's solve ended: its name, status and reason, the checks of
@@ -313,46 +326,107 @@ impl Solution {
         model: &Model,
         form: Formulation,
         t: Trajectory,
-        outcome: SolveOutcome,
+        mut outcome: SolveOutcome,
     ) -> Self {
-        let n = mesh.n;
-        let col = |c: usize| t.x.iter().map(|x| x[c]).collect::<Vec<f64>>();
-        let chi = dynamics::control_dim(form) - 1;
-        let ctrl = |i: usize| &t.u[i.min(n - 1)];
-        let mass_kg: Vec<f64> = t.x.iter().map(|x| x[ix::OMEGA].exp()).collect();
-        let thrust_n = node_thrust_n(model, form, &t);
-        let gimbal_rate_radps = (0..=n).map(|k| ctrl(k)[chi]).collect();
-        let final_mass_kg = mass_kg[n];
+        let mut sol = Solution::empty(outcome.method);
+        sol.trajectory = t;
+        sol.history = std::mem::take(&mut outcome.history);
+        sol.refill(mesh, model, form, outcome);
+        sol
+    }
+
+    /// An answer with no nodes, to be filled by [`Solution::refill`].
+    pub fn empty(method: Method) -> Self {
         Solution {
-            status: outcome.status,
-            message: outcome.message,
-            formulation: form,
-            nodes: n,
-            intervals: mesh.intervals.len(),
-            mesh: mesh.layout(),
-            tf_s: t.tf_s,
-            final_mass_kg,
-            fuel_kg: mass_kg[0] - final_mass_kg,
-            iterations: outcome.history.len(),
-            solve_time_ms: outcome.solve_time_ms,
-            t_s: (0..=n).map(|k| mesh.time_s(k, t.tf_s)).collect(),
-            x_m: col(ix::X),
-            z_m: col(ix::Z),
-            vx_mps: col(ix::VX),
-            vz_mps: col(ix::VZ),
-            theta_rad: col(ix::THETA),
-            pitch_rate_radps: col(ix::W),
-            mass_kg,
-            delta_rad: col(ix::DELTA),
-            thrust_n,
-            gimbal_rate_radps,
-            checks: outcome.checks,
-            method: outcome.method,
-            history: outcome.history,
+            status: Status::NotConverged,
+            message: String::new(),
+            formulation: Formulation::Exact,
+            nodes: 0,
+            intervals: 0,
+            mesh: MeshLayout {
+                breaks_tau: Vec::new(),
+                points: Vec::new(),
+            },
+            tf_s: 0.0,
+            final_mass_kg: 0.0,
+            fuel_kg: 0.0,
+            iterations: 0,
+            solve_time_ms: 0.0,
+            t_s: Vec::new(),
+            x_m: Vec::new(),
+            z_m: Vec::new(),
+            vx_mps: Vec::new(),
+            vz_mps: Vec::new(),
+            theta_rad: Vec::new(),
+            pitch_rate_radps: Vec::new(),
+            mass_kg: Vec::new(),
+            delta_rad: Vec::new(),
+            thrust_n: Vec::new(),
+            gimbal_rate_radps: Vec::new(),
+            checks: Checks {
+                relaxation_gap: 0.0,
+                thrust_alignment_min: 0.0,
+                thrust_bound_violation_n: 0.0,
+                max_defect: 0.0,
+                virtual_control: 0.0,
+                min_altitude_margin_m: 0.0,
+            },
+            method,
+            history: History::default(),
             refinement: None,
             controls_flown: None,
-            trajectory: t,
+            trajectory: Trajectory {
+                x: Vec::new(),
+                u: Vec::new(),
+                tf_s: 0.0,
+            },
         }
+    }
+
+    /// Fill every field from `self.trajectory` and `self.history`, which
+    /// the caller has set (the history of `outcome` is not read), `mesh`,
+    /// `model`, `form` and `outcome`: the node arrays in physical units, in
+    /// the vectors' own storage (a re-plan's answer allocates nothing once
+    /// they have their size).
+    pub fn refill(&mut self, mesh: &Mesh, model: &Model, form: Formulation, outcome: SolveOutcome) {
+        let n = mesh.n;
+        let t = &self.trajectory;
+        let chi = dynamics::control_dim(form) - 1;
+        refill_with(&mut self.t_s, (0..=n).map(|k| mesh.time_s(k, t.tf_s)));
+        for (v, c) in [
+            (&mut self.x_m, ix::X),
+            (&mut self.z_m, ix::Z),
+            (&mut self.vx_mps, ix::VX),
+            (&mut self.vz_mps, ix::VZ),
+            (&mut self.theta_rad, ix::THETA),
+            (&mut self.pitch_rate_radps, ix::W),
+            (&mut self.delta_rad, ix::DELTA),
+        ] {
+            refill_with(v, t.x.iter().map(|x| x[c]));
+        }
+        refill_with(&mut self.mass_kg, t.x.iter().map(|x| x[ix::OMEGA].exp()));
+        refill_with(&mut self.thrust_n, node_thrusts(model, form, t));
+        refill_with(
+            &mut self.gimbal_rate_radps,
+            (0..=n).map(|k| t.u[k.min(n - 1)][chi]),
+        );
+        if !mesh.has_layout(&self.mesh) {
+            self.mesh = mesh.layout();
+        }
+        self.status = outcome.status;
+        self.message = outcome.message;
+        self.formulation = form;
+        self.nodes = n;
+        self.intervals = mesh.intervals.len();
+        self.tf_s = t.tf_s;
+        self.final_mass_kg = self.mass_kg[n];
+        self.fuel_kg = self.mass_kg[0] - self.final_mass_kg;
+        self.iterations = self.history.len();
+        self.solve_time_ms = outcome.solve_time_ms;
+        self.checks = outcome.checks;
+        self.method = outcome.method;
+        self.refinement = None;
+        self.controls_flown = None;
     }
 
     /// This answer as a plan to fly: its trajectory, mesh and formulation,
@@ -372,6 +446,18 @@ impl Solution {
             &sigma,
             &self.delta_rad,
         )
+    }
+
+    /// [`Self::plan`] into `plan`, in its own storage.
+    pub fn refill_plan(&self, plan: &mut Plan) {
+        plan.refill(
+            &self.trajectory,
+            &self.mesh,
+            self.formulation,
+            &self.t_s,
+            self.thrust_n.iter().zip(&self.mass_kg).map(|(t, m)| t / m),
+            &self.delta_rad,
+        );
     }
 
     /// A name for the formulation that produced this answer, given the one

@@ -44,19 +44,31 @@ impl Interpolant {
     /// Interpolate `y` at strictly increasing times `t` (at least two points).
     pub fn new(kind: Interpolation, t: &[f64], y: &[f64]) -> Self {
         assert_eq!(t.len(), y.len(), "as many times as values");
+        let mut p = Interpolant {
+            t: Vec::new(),
+            y: Vec::new(),
+            d: Vec::new(),
+        };
+        p.refill(kind, t, y.iter().copied());
+        p
+    }
+
+    /// [`Self::new`] in place, in this interpolant's own storage (a
+    /// re-plan's plan allocates nothing): through `values` at `t`.
+    pub fn refill(&mut self, kind: Interpolation, t: &[f64], values: impl Iterator<Item = f64>) {
+        self.t.clear();
+        self.t.extend_from_slice(t);
+        self.y.clear();
+        self.y.extend(values);
+        assert_eq!(t.len(), self.y.len(), "as many times as values");
         assert!(t.len() >= 2, "at least two points");
         assert!(
             t.windows(2).all(|w| w[1] > w[0]),
             "times strictly increasing"
         );
-        let d = match kind {
-            Interpolation::Linear => vec![],
-            Interpolation::Pchip => pchip_slopes(t, y),
-        };
-        Interpolant {
-            t: t.to_vec(),
-            y: y.to_vec(),
-            d,
+        self.d.clear();
+        if kind == Interpolation::Pchip {
+            pchip_slopes(&self.t, &self.y, &mut self.d);
         }
     }
 
@@ -99,25 +111,26 @@ impl Interpolant {
 /// interval, else the weighted harmonic mean of the neighbouring secants (which
 /// meets the Fritsch–Carlson monotonicity condition α, β ≤ 3), and a one-sided
 /// three-point shape-preserving formula at the two ends.
-fn pchip_slopes(t: &[f64], y: &[f64]) -> Vec<f64> {
+fn pchip_slopes(t: &[f64], y: &[f64], d: &mut Vec<f64>) {
     let n = t.len();
-    let h: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-    let delta: Vec<f64> = (0..n - 1).map(|k| (y[k + 1] - y[k]) / h[k]).collect();
+    // The interval widths and secants, h_k and Δ_k.
+    let h = |k: usize| t[k + 1] - t[k];
+    let delta = |k: usize| (y[k + 1] - y[k]) / h(k);
     if n == 2 {
-        return vec![delta[0], delta[0]];
+        d.extend([delta(0), delta(0)]);
+        return;
     }
-    let mut d = vec![0.0; n];
-    for k in 1..n - 1 {
-        let (a, b) = (delta[k - 1], delta[k]);
+    d.resize(n, 0.0);
+    for (k, dk) in d.iter_mut().enumerate().take(n - 1).skip(1) {
+        let (a, b) = (delta(k - 1), delta(k));
         if a * b > 0.0 {
-            let w1 = 2.0 * h[k] + h[k - 1];
-            let w2 = h[k] + 2.0 * h[k - 1];
-            d[k] = (w1 + w2) / (w1 / a + w2 / b);
+            let w1 = 2.0 * h(k) + h(k - 1);
+            let w2 = h(k) + 2.0 * h(k - 1);
+            *dk = (w1 + w2) / (w1 / a + w2 / b);
         }
     }
-    d[0] = pchip_end_slope(h[0], h[1], delta[0], delta[1]);
-    d[n - 1] = pchip_end_slope(h[n - 2], h[n - 3], delta[n - 2], delta[n - 3]);
-    d
+    d[0] = pchip_end_slope(h(0), h(1), delta(0), delta(1));
+    d[n - 1] = pchip_end_slope(h(n - 2), h(n - 3), delta(n - 2), delta(n - 3));
 }
 
 /// Three-point end slope, limited to keep the end interval shape-preserving.

@@ -159,6 +159,24 @@ impl Mesh {
         }
     }
 
+    /// Whether `layout` is this mesh's ([`Self::layout`]), compared without
+    /// building it.
+    pub fn has_layout(&self, layout: &MeshLayout) -> bool {
+        let ivs = &self.intervals;
+        layout.points.len() == ivs.len()
+            && layout.breaks_tau.len() == ivs.len() + 1
+            && ivs
+                .iter()
+                .zip(&layout.points)
+                .all(|(iv, &p)| iv.points == p)
+            && ivs
+                .iter()
+                .zip(&layout.breaks_tau)
+                .all(|(iv, &b)| iv.tau_lo.to_bits() == b.to_bits())
+            && ivs.last().map(|iv| iv.tau_hi.to_bits())
+                == layout.breaks_tau.last().map(|b| b.to_bits())
+    }
+
     /// Row i of the global differentiation matrix: (first node, entries).
     /// Entry j of the slice multiplies state node `first + j`.
     #[inline]

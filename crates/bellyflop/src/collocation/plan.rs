@@ -4,6 +4,7 @@
 use crate::collocation::interpolation::{Interpolant, Interpolation};
 use crate::collocation::mesh::Mesh;
 use crate::collocation::trajectory::Trajectory;
+use crate::input::mesh_layout::MeshLayout;
 use crate::input::settings::Formulation;
 use crate::problem::dynamics::{self, ix, NU_MAX, NX};
 
@@ -39,6 +40,31 @@ impl Plan {
             sigma_pchip: Interpolant::new(Interpolation::Pchip, t_s, sigma),
             delta_pchip: Interpolant::new(Interpolation::Pchip, t_s, delta_rad),
         }
+    }
+
+    /// [`Plan::new`] in place, in this plan's own storage (a re-plan's
+    /// plan allocates nothing once the sizes are set): `trajectory` on the
+    /// mesh of `layout` (rebuilt only when it differs), σ and δ at `t_s`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn refill(
+        &mut self,
+        trajectory: &Trajectory,
+        layout: &MeshLayout,
+        form: Formulation,
+        t_s: &[f64],
+        sigma: impl Iterator<Item = f64>,
+        delta_rad: &[f64],
+    ) {
+        self.trajectory.x.clone_from(&trajectory.x);
+        self.trajectory.u.clone_from(&trajectory.u);
+        self.trajectory.tf_s = trajectory.tf_s;
+        if !self.mesh.has_layout(layout) {
+            self.mesh = Mesh::from_layout(layout);
+        }
+        self.form = form;
+        self.sigma_pchip.refill(Interpolation::Pchip, t_s, sigma);
+        self.delta_pchip
+            .refill(Interpolation::Pchip, t_s, delta_rad.iter().copied());
     }
 
     /// Thrust-per-mass σ [N/kg] and nozzle angle δ \[rad\] to fly at `t_s`
@@ -101,36 +127,47 @@ pub fn shifted_reference(
     x0: &[f64; NX],
     form: Formulation,
 ) -> Trajectory {
+    let mut t = Trajectory {
+        x: Vec::new(),
+        u: Vec::new(),
+        tf_s: 0.0,
+    };
+    shifted_reference_into(plan, elapsed_s, mesh, x0, form, &mut t);
+    t
+}
+
+/// [`shifted_reference`] into `t`, in its vectors' own storage (a re-plan
+/// allocates nothing).
+pub fn shifted_reference_into(
+    plan: &Plan,
+    elapsed_s: f64,
+    mesh: &Mesh,
+    x0: &[f64; NX],
+    form: Formulation,
+    t: &mut Trajectory,
+) {
     let remaining = (plan.tf_s() - elapsed_s).max(0.05 * plan.tf_s());
     let time = |tau: f64| elapsed_s + 0.5 * (tau + 1.0) * remaining;
-    let mut x: Vec<[f64; NX]> = mesh
-        .nodes
-        .iter()
-        .map(|&tau| plan.state_at(time(tau)))
-        .collect();
-    x[0] = *x0;
-    let u = (0..mesh.n)
-        .map(|i| {
-            let (txm, tzm, sigma, chi) = plan.controls_at(time(mesh.nodes[i]));
-            let mut u = [0.0; NU_MAX];
-            match form {
-                Formulation::Exact => {
-                    u[0] = sigma;
-                    u[1] = chi;
-                }
-                Formulation::Paper | Formulation::Vector => {
-                    u[0] = txm;
-                    u[1] = tzm;
-                    u[2] = sigma;
-                    u[3] = chi;
-                }
+    t.x.clear();
+    t.x.extend(mesh.nodes.iter().map(|&tau| plan.state_at(time(tau))));
+    t.x[0] = *x0;
+    t.u.clear();
+    t.u.extend((0..mesh.n).map(|i| {
+        let (txm, tzm, sigma, chi) = plan.controls_at(time(mesh.nodes[i]));
+        let mut u = [0.0; NU_MAX];
+        match form {
+            Formulation::Exact => {
+                u[0] = sigma;
+                u[1] = chi;
             }
-            u
-        })
-        .collect();
-    Trajectory {
-        x,
-        u,
-        tf_s: remaining,
-    }
+            Formulation::Paper | Formulation::Vector => {
+                u[0] = txm;
+                u[1] = tzm;
+                u[2] = sigma;
+                u[3] = chi;
+            }
+        }
+        u
+    }));
+    t.tf_s = remaining;
 }

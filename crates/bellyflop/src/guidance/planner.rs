@@ -112,7 +112,48 @@ impl Planner {
         elapsed_s: f64,
         observer: &mut dyn Observer,
     ) -> Result<Solution, InputError> {
-        let mut s = self.scenario.clone();
+        let mut out = Solution::empty(self.method);
+        self.replan_into(state, elapsed_s, observer, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Self::replan`] into `out`, in its own storage and the plan's: with
+    /// the direct method, once `out` and the plan have their sizes (after a
+    /// first re-plan of the same mesh), a re-plan that converges allocates
+    /// nothing (issue 27). On an error `out` is left as it was.
+    pub fn replan_into(
+        &mut self,
+        state: &InitialState,
+        elapsed_s: f64,
+        observer: &mut dyn Observer,
+        out: &mut Solution,
+    ) -> Result<(), InputError> {
+        // The re-plan's scenario is the cold one with this start and these
+        // guesses, set in place (no copy) and restored after.
+        let d = &self.scenario.discretization;
+        let saved = (
+            self.scenario.initial.clone(),
+            d.tf_guess_s,
+            d.final_mass_guess_kg,
+        );
+        let result = self.replan_in_place(state, elapsed_s, observer, out);
+        let (initial, tf_guess_s, final_mass_guess_kg) = saved;
+        self.scenario.initial = initial;
+        self.scenario.discretization.tf_guess_s = tf_guess_s;
+        self.scenario.discretization.final_mass_guess_kg = final_mass_guess_kg;
+        result
+    }
+
+    /// [`Self::replan_into`] on `self.scenario`, which it changes.
+    fn replan_in_place(
+        &mut self,
+        state: &InitialState,
+        elapsed_s: f64,
+        observer: &mut dyn Observer,
+        out: &mut Solution,
+    ) -> Result<(), InputError> {
+        let s = &mut self.scenario;
+        let fallback_kg = s.discretization.final_mass_guess_kg;
         s.initial = state.clone();
         if let Some(plan) = &self.plan {
             s.discretization.tf_guess_s = (plan.tf_s() - elapsed_s).max(0.05 * plan.tf_s());
@@ -122,24 +163,62 @@ impl Planner {
             elapsed_s,
             state.mass_kg,
             s.vehicle.dry_mass_kg,
-            s.discretization.final_mass_guess_kg,
+            fallback_kg,
         );
         s.validate()?;
         self.settings.validate()?;
-        let Some(plan) = self.plan.take() else {
-            let sol = self.solve(&s, Start::StraightLine, observer);
-            return Ok(self.adopt(sol));
+        if self.solver_method != self.method {
+            self.solver = method::solver(self.method);
+            self.solver_method = self.method;
+        }
+        let Planner {
+            scenario,
+            settings,
+            plan,
+            solver,
+            ..
+        } = self;
+        let Some(current) = plan.as_ref() else {
+            *out = solver.solve(scenario, settings, Start::StraightLine, observer);
+            self.adopt_into(out);
+            return Ok(());
         };
         let replan = Replan {
-            plan: &plan,
+            plan: current,
             elapsed_s,
             relaxed_iterations: self.warm_relaxed_iterations,
             proximal_weight: self.warm_proximal_weight,
             direct_max_iterations: self.direct_max_iterations,
         };
-        let sol = self.solve(&s, Start::Replan(replan), observer);
-        self.plan = Some(plan);
-        Ok(self.adopt(sol))
+        solver.solve_into(scenario, settings, Start::Replan(replan), observer, out);
+        self.adopt_into(out);
+        Ok(())
+    }
+
+    /// Make, now, what re-plans need, so that a direct re-plan into `out`
+    /// allocates nothing from the first one on: the method's re-plan
+    /// storage and room for `out`'s iteration history. For a flight
+    /// loop's setup, after the cold solve.
+    pub fn prepare_replans(&mut self, out: &mut Solution) {
+        if self.solver_method != self.method {
+            self.solver = method::solver(self.method);
+            self.solver_method = self.method;
+        }
+        let budget = self.direct_max_iterations;
+        self.solver
+            .prepare_replans(&self.scenario, &self.settings, budget);
+        out.history.direct.reserve(budget);
+    }
+
+    /// Make `sol` the plan (in the old plan's storage) if it is solved; the
+    /// old plan stays otherwise.
+    fn adopt_into(&mut self, sol: &Solution) {
+        if sol.status == crate::Status::Solved {
+            match &mut self.plan {
+                Some(plan) => sol.refill_plan(plan),
+                None => self.plan = Some(sol.plan()),
+            }
+        }
     }
 }
 

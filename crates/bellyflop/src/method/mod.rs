@@ -61,6 +61,31 @@ pub trait Solver: std::fmt::Debug + Send {
         start: Start<'_>,
         observer: &mut dyn Observer,
     ) -> Solution;
+
+    /// [`Solver::solve`] into `out`, in `out`'s own storage where the
+    /// method can: the direct method's re-plans allocate nothing in a
+    /// flight loop (issue 27). By default, `out` is replaced.
+    fn solve_into(
+        &mut self,
+        scenario: &Scenario,
+        settings: &SolverSettings,
+        start: Start<'_>,
+        observer: &mut dyn Observer,
+        out: &mut Solution,
+    ) {
+        *out = self.solve(scenario, settings, start, observer);
+    }
+
+    /// Make, now, what re-plans of `scenario`'s mesh need, so that none
+    /// allocates later (the direct method's NLP and storage; by default
+    /// nothing). `direct_max_iterations`: a direct re-plan's budget.
+    fn prepare_replans(
+        &mut self,
+        _scenario: &Scenario,
+        _settings: &SolverSettings,
+        _direct_max_iterations: usize,
+    ) {
+    }
 }
 
 /// The solver of `method`, with no warm-start state yet: the one place that

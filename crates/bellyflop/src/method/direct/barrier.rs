@@ -32,14 +32,23 @@ pub(super) struct Barrier {
 }
 
 impl Barrier {
-    pub(super) fn new(settings: &DirectSettings) -> Self {
+    /// The barrier of `settings` at its start, its E_0 history kept in `e0_history` (emptied;
+    /// reused storage, so that a re-plan does not allocate).
+    pub(super) fn with_history(settings: &DirectSettings, mut e0_history: Vec<f64>) -> Self {
+        e0_history.clear();
+        e0_history.reserve(settings.max_iterations);
         Barrier {
             mu: settings.mu_init,
             tau: TAU_MIN.max(1.0 - settings.mu_init),
             adaptive: settings.mu_strategy == MuStrategy::Adaptive,
-            e0_history: Vec::with_capacity(settings.max_iterations),
+            e0_history,
             tol: settings.tolerance,
         }
+    }
+
+    /// Its E_0 history's storage, for [`Barrier::with_history`].
+    pub(super) fn into_history(self) -> Vec<f64> {
+        self.e0_history
     }
 
     pub(super) fn is_adaptive(&self) -> bool {

@@ -10,9 +10,10 @@ use std::time::Instant;
 use crate::input::settings::DirectSettings;
 use crate::method::direct::barrier::Barrier;
 use crate::method::direct::inertia::InertiaCorrection;
+use crate::method::direct::iterate::Bounds;
 use crate::method::direct::iterate::{inf_norm, l1_norm, Iterate};
 use crate::method::direct::line_search::{FilterLineSearch, LineSearch};
-use crate::method::direct::newton::{Newton, Storage};
+use crate::method::direct::newton::{Newton, Workspace};
 use crate::method::direct::nlp::{Duals, Nlp};
 use crate::method::direct::restoration::Restoration;
 use crate::method::observer::{deadline_message, Iteration, Observer};
@@ -64,6 +65,93 @@ struct Progress {
     restoration: bool,
 }
 
+/// The storage of a solve: the Newton system's workspace and bounds, the
+/// iterate, the barrier's E_0 history and the filter. Kept between the
+/// solves of a re-plan sequence ([`Storage::reuse_for`]), so that a
+/// re-plan allocates none of it (issue 27).
+pub struct Storage {
+    ws: Workspace,
+    bounds: Bounds,
+    pub(super) iterate: Iterate,
+    e0_history: Vec<f64>,
+    filter: Vec<(f64, f64)>,
+}
+
+impl Storage {
+    /// Storage for `nlp`.
+    pub fn new(nlp: &Nlp) -> Storage {
+        Storage {
+            ws: Workspace::new(nlp),
+            bounds: Bounds::new(nlp),
+            iterate: Iterate {
+                w: Vec::new(),
+                lambda: Vec::new(),
+                zl: Vec::new(),
+                zu: Vec::new(),
+            },
+            e0_history: Vec::new(),
+            filter: Vec::new(),
+        }
+    }
+
+    /// This storage, reset to [`Storage::new`]'s state, for `nlp` when its
+    /// structure fits (the same mesh and fixed variables); else new storage.
+    pub fn reuse_for(mut self, nlp: &Nlp) -> Storage {
+        if !self.ws.solver.fits(nlp) || self.ws.c.len() != nlp.n_con() {
+            return Storage::new(nlp);
+        }
+        self.ws.reset();
+        self.bounds.refill(nlp);
+        self
+    }
+
+    /// The last solve's iterate: its scaled primal point.
+    pub fn w(&self) -> &[f64] {
+        &self.iterate.w
+    }
+
+    /// Room for a solve of `nlp` of up to `max_iterations` iterations: the
+    /// iterate's vectors, the barrier's history and the filter, so that
+    /// even the first solve in this storage allocates nothing.
+    pub fn reserve(&mut self, nlp: &Nlp, max_iterations: usize) {
+        let (nv, nc) = (nlp.n_var(), nlp.n_con());
+        let it = &mut self.iterate;
+        for (v, len) in [
+            (&mut it.w, nv),
+            (&mut it.lambda, nc),
+            (&mut it.zl, nv),
+            (&mut it.zu, nv),
+        ] {
+            v.reserve(len.saturating_sub(v.len()));
+        }
+        self.e0_history.reserve(max_iterations);
+        self.filter
+            .reserve(crate::method::direct::line_search::FILTER_CAPACITY);
+    }
+
+    /// The last iterate's primal point, and a defect buffer of the NLP's
+    /// size (the workspace's, free between solves).
+    pub(super) fn point_and_defects(&mut self) -> (&[f64], &mut [f64]) {
+        (&self.iterate.w, &mut self.ws.c)
+    }
+}
+
+impl std::fmt::Debug for Storage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Storage")
+            .field("variables", &self.bounds.lo.len())
+            .finish_non_exhaustive()
+    }
+}
+
+/// How a solve in [`Storage`] ended; its iterate is the storage's.
+pub(super) struct Ended {
+    pub status: Status,
+    pub message: String,
+    /// Largest |defect| of the last iterate (scaled).
+    pub max_defect: f64,
+}
+
 pub(super) struct Driver<'a> {
     nlp: &'a Nlp,
     settings: &'a DirectSettings,
@@ -71,6 +159,9 @@ pub(super) struct Driver<'a> {
     barrier: Barrier,
     inertia: InertiaCorrection,
     search: FilterLineSearch,
+    /// The iterate's storage, taken by [`Self::initial_iterate`] and
+    /// returned at the end.
+    spare: Iterate,
 }
 
 impl<'a> Driver<'a> {
@@ -78,7 +169,7 @@ impl<'a> Driver<'a> {
         Driver::with_storage(nlp, settings, Storage::new(nlp))
     }
 
-    /// A driver whose Newton system lives in `storage` (made for `nlp`).
+    /// A driver that lives in `storage` (made for `nlp`).
     pub(super) fn with_storage(
         nlp: &'a Nlp,
         settings: &'a DirectSettings,
@@ -87,10 +178,23 @@ impl<'a> Driver<'a> {
         Driver {
             nlp,
             settings,
-            sys: Newton::with_storage(nlp, storage),
-            barrier: Barrier::new(settings),
+            sys: Newton::with_parts(nlp, storage.ws, storage.bounds),
+            barrier: Barrier::with_history(settings, storage.e0_history),
             inertia: InertiaCorrection::default(),
-            search: FilterLineSearch::new(),
+            search: FilterLineSearch::with_storage(storage.filter),
+            spare: storage.iterate,
+        }
+    }
+
+    /// Its storage, for the next solve of the same structure.
+    fn into_storage(self, iterate: Iterate) -> Storage {
+        let (ws, bounds) = self.sys.into_parts();
+        Storage {
+            ws,
+            bounds,
+            iterate,
+            e0_history: self.barrier.into_history(),
+            filter: self.search.into_storage(),
         }
     }
 
@@ -102,17 +206,32 @@ impl<'a> Driver<'a> {
     }
 
     pub(super) fn run(self, start: Start, observer: &mut dyn Observer) -> NlpResult {
-        self.run_keeping(start, observer).0
+        let mut history = Vec::with_capacity(self.settings.max_iterations);
+        let (end, mut storage) = self.run_in(start, observer, &mut history);
+        let it = &mut storage.iterate;
+        NlpResult {
+            w: std::mem::take(&mut it.w),
+            lambda: std::mem::take(&mut it.lambda),
+            zl: std::mem::take(&mut it.zl),
+            zu: std::mem::take(&mut it.zu),
+            status: end.status,
+            message: end.message,
+            history,
+            max_defect: end.max_defect,
+        }
     }
 
-    /// [`Self::run`], and the Newton system's storage for the next solve.
-    pub(super) fn run_keeping(
+    /// [`Self::run`] with each iteration appended to `history` (its room
+    /// reserved first) and the last iterate left in the returned storage,
+    /// for the next solve of the same structure.
+    pub(super) fn run_in(
         mut self,
         start: Start,
         observer: &mut dyn Observer,
-    ) -> (NlpResult, Storage) {
+        history: &mut Vec<DirectIteration>,
+    ) -> (Ended, Storage) {
         let mut it = self.initial_iterate(start);
-        let mut history = Vec::with_capacity(self.settings.max_iterations);
+        history.reserve(self.settings.max_iterations);
         let mut outcome: Option<Outcome> = None;
 
         for iteration in 1..=self.settings.max_iterations {
@@ -145,8 +264,8 @@ impl<'a> Driver<'a> {
                 break;
             }
         }
-        let result = self.finish(it, outcome, history);
-        (result, self.sys.into_storage())
+        let end = self.finish(&it, outcome);
+        (end, self.into_storage(it))
     }
 
     /// The starting iterate (§3.6): the point pushed inside its bounds, the
@@ -159,7 +278,10 @@ impl<'a> Driver<'a> {
             Start::Primal(w0, lambda0) => (w0, lambda0, None),
             Start::PrimalDual(w0, duals) => (w0, Some(&duals.lambda[..]), Some(duals)),
         };
-        let mut w = w0.to_vec();
+        let spare = &mut self.spare;
+        let mut w = std::mem::take(&mut spare.w);
+        w.clear();
+        w.extend_from_slice(w0);
         let push = if warm.is_some() {
             WARM_BOUND_PUSH
         } else {
@@ -178,18 +300,16 @@ impl<'a> Driver<'a> {
                 _ => 1.0,
             }
         };
-        let zl = (0..nv)
-            .map(|j| start_z(j, b.has_lo[j], w[j] - b.lo[j], warm.map(|d| &d.zl)))
-            .collect();
-        let zu = (0..nv)
-            .map(|j| start_z(j, b.has_hi[j], b.hi[j] - w[j], warm.map(|d| &d.zu)))
-            .collect();
-        let mut it = Iterate {
-            w,
-            lambda: vec![0.0; nc],
-            zl,
-            zu,
-        };
+        let mut zl = std::mem::take(&mut spare.zl);
+        zl.clear();
+        zl.extend((0..nv).map(|j| start_z(j, b.has_lo[j], w[j] - b.lo[j], warm.map(|d| &d.zl))));
+        let mut zu = std::mem::take(&mut spare.zu);
+        zu.clear();
+        zu.extend((0..nv).map(|j| start_z(j, b.has_hi[j], b.hi[j] - w[j], warm.map(|d| &d.zu))));
+        let mut lambda = std::mem::take(&mut spare.lambda);
+        lambda.clear();
+        lambda.resize(nc, 0.0);
+        let mut it = Iterate { w, lambda, zl, zu };
         self.sys.evaluate(&it.w, &it.lambda);
         match lambda0 {
             Some(l) if l.len() == nc => it.lambda.copy_from_slice(l),
@@ -272,30 +392,22 @@ impl<'a> Driver<'a> {
         }
     }
 
-    /// The answer: the last iterate, its defect and how the solve ended.
-    fn finish(
-        &mut self,
-        it: Iterate,
-        outcome: Option<Outcome>,
-        history: Vec<DirectIteration>,
-    ) -> NlpResult {
-        let (status, message) = outcome.unwrap_or((
-            Status::NotConverged,
-            format!(
-                "no convergence in {} interior-point iterations; the last iterate is returned",
-                self.settings.max_iterations
-            ),
-        ));
+    /// How the solve ended, with the last iterate's defect.
+    fn finish(&mut self, it: &Iterate, outcome: Option<Outcome>) -> Ended {
+        let (status, message) = outcome.unwrap_or_else(|| {
+            (
+                Status::NotConverged,
+                format!(
+                    "no convergence in {} interior-point iterations; the last iterate is returned",
+                    self.settings.max_iterations
+                ),
+            )
+        });
         self.nlp.defects(&it.w, &mut self.sys.ws.c);
-        NlpResult {
+        Ended {
             max_defect: inf_norm(&self.sys.ws.c),
-            w: it.w,
-            lambda: it.lambda,
-            zl: it.zl,
-            zu: it.zu,
             status,
             message,
-            history,
         }
     }
 }

@@ -18,7 +18,7 @@ const GAMMA_ALPHA: f64 = 0.05;
 const MAX_SOC: usize = 4;
 const KAPPA_SOC: f64 = 0.99;
 /// Filter entries reserved at setup.
-const FILTER_CAPACITY: usize = 256;
+pub(super) const FILTER_CAPACITY: usize = 256;
 
 /// Filter entries (θ, φ) (§2.3).
 pub(super) struct Filter(Vec<(f64, f64)>);
@@ -60,13 +60,22 @@ pub(super) struct FilterLineSearch {
 }
 
 impl FilterLineSearch {
-    pub(super) fn new() -> Self {
+    /// An empty filter line search, its filter in `entries` (emptied;
+    /// reused storage, so that a re-plan does not allocate).
+    pub(super) fn with_storage(mut entries: Vec<(f64, f64)>) -> Self {
+        entries.clear();
+        // Room for the entries of a barrier subproblem: no growth in an iteration.
+        entries.reserve(FILTER_CAPACITY);
         FilterLineSearch {
-            // Room for the entries of a barrier subproblem: no growth in an iteration.
-            filter: Filter(Vec::with_capacity(FILTER_CAPACITY)),
+            filter: Filter(entries),
             theta_max: 0.0,
             theta_min: 0.0,
         }
+    }
+
+    /// Its filter's storage, for [`FilterLineSearch::with_storage`].
+    pub(super) fn into_storage(self) -> Vec<(f64, f64)> {
+        self.filter.0
     }
 
     /// θ_max and θ_min from the starting point's infeasibility θ_0.

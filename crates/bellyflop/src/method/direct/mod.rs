@@ -48,10 +48,10 @@ use crate::input::settings::Method;
 use crate::input::settings::SolverSettings;
 pub use crate::method::direct::barrier::ADAPTIVE_WINDOW;
 use crate::method::direct::driver::Driver;
+use crate::method::direct::driver::Storage;
 pub use crate::method::direct::driver::{NlpResult, Start};
 use crate::method::direct::iterate::inf_norm;
 pub use crate::method::direct::newton::lagrangian_blocks;
-use crate::method::direct::newton::Storage;
 use crate::method::direct::nlp::Duals;
 use crate::method::direct::nlp::{Nlp, NL, NS};
 use crate::method::observer::Observer;
@@ -92,9 +92,13 @@ pub fn solve_nlp_warm(
 /// the thrust bounds at every reported value and the ground. The thrust is
 /// along the nozzle by construction (gap 0, alignment 1).
 pub fn checks(nlp: &Nlp, w: &[f64]) -> crate::solution::Checks {
+    checks_with(nlp, w, &mut vec![0.0; nlp.n_con()])
+}
+
+/// [`checks`] with the defects computed into `c` (the NLP's size).
+fn checks_with(nlp: &Nlp, w: &[f64], c: &mut [f64]) -> crate::solution::Checks {
     use crate::method::direct::nlp::slot;
-    let mut c = vec![0.0; nlp.n_con()];
-    nlp.defects(w, &mut c);
+    nlp.defects(w, c);
     let m = &nlp.model;
     let mut bound = 0.0f64;
     for i in 0..nlp.n {
@@ -109,7 +113,7 @@ pub fn checks(nlp: &Nlp, w: &[f64]) -> crate::solution::Checks {
         relaxation_gap: 0.0,
         thrust_alignment_min: 1.0,
         thrust_bound_violation_n: bound,
-        max_defect: inf_norm(&c),
+        max_defect: inf_norm(c),
         virtual_control: 0.0,
         min_altitude_margin_m,
     }
@@ -241,25 +245,46 @@ pub fn solve_from_start(
     start_point: Start,
     observer: &mut dyn Observer,
 ) -> (crate::Solution, Duals) {
-    let (sol, duals, _) = solve_in(settings, nlp, start_point, observer, Storage::new(nlp));
+    let mut sol = crate::Solution::empty(Method::Direct);
+    let mut storage = solve_into(
+        settings,
+        nlp,
+        start_point,
+        observer,
+        Storage::new(nlp),
+        &mut sol,
+    );
+    let it = &mut storage.iterate;
+    let duals = Duals {
+        lambda: std::mem::take(&mut it.lambda),
+        zl: std::mem::take(&mut it.zl),
+        zu: std::mem::take(&mut it.zu),
+    };
     (sol, duals)
 }
 
-/// [`solve_from_start`] with the Newton system in `storage` (made for
-/// `nlp`), which comes back for the next solve of the same structure.
-pub(super) fn solve_in(
+/// [`solve_from_start`] in `storage` (made for `nlp`), the answer written
+/// into `out` in its own vectors' storage; the storage comes back, its
+/// iterate the last one, for the next solve of the same structure. With
+/// storage and an answer of the right sizes, a solve that converges
+/// allocates nothing (a re-plan in a flight loop, issue 27).
+pub(super) fn solve_into(
     settings: &SolverSettings,
     nlp: &Nlp,
     start_point: Start,
     observer: &mut dyn Observer,
     storage: Storage,
-) -> (crate::Solution, Duals, Storage) {
+    out: &mut crate::Solution,
+) -> Storage {
     let start = Instant::now();
-    let (r, storage) =
-        Driver::with_storage(nlp, &settings.direct, storage).run_keeping(start_point, observer);
+    out.history.scvx.clear();
+    out.history.direct.clear();
+    let driver = Driver::with_storage(nlp, &settings.direct, storage);
+    let (end, mut storage) = driver.run_in(start_point, observer, &mut out.history.direct);
     let ms = start.elapsed().as_secs_f64() * 1e3;
-    let checks = checks(nlp, &r.w);
-    let (mut status, mut message) = (r.status, r.message);
+    let (w, c) = storage.point_and_defects();
+    let checks = checks_with(nlp, w, c);
+    let (mut status, mut message) = (end.status, end.message);
     if status == Status::Solved
         && checks.min_altitude_margin_m < -crate::solution::GROUND_TOLERANCE_M
     {
@@ -274,22 +299,12 @@ pub(super) fn solve_in(
         status,
         message,
         checks,
-        history: History::direct(r.history),
+        history: History::default(),
         solve_time_ms: ms,
     };
-    let sol = crate::Solution::new(
-        &nlp.mesh,
-        &nlp.model,
-        crate::Formulation::Exact,
-        nlp.to_trajectory(&r.w),
-        outcome,
-    );
-    let duals = Duals {
-        lambda: r.lambda,
-        zl: r.zl,
-        zu: r.zu,
-    };
-    (sol, duals, storage)
+    nlp.to_trajectory_into(storage.w(), &mut out.trajectory);
+    out.refill(&nlp.mesh, &nlp.model, crate::Formulation::Exact, outcome);
+    storage
 }
 
 #[cfg(test)]

@@ -94,7 +94,7 @@ pub(super) struct Workspace {
 }
 
 impl Workspace {
-    fn new(nlp: &Nlp) -> Self {
+    pub(super) fn new(nlp: &Nlp) -> Self {
         let (nv, nc) = (nlp.n_var(), nlp.n_con());
         Workspace {
             kkt: KktMatrix::zeros(nlp),
@@ -133,7 +133,7 @@ impl Workspace {
 impl Workspace {
     /// Back to the state of [`Workspace::new`] for an NLP of the same
     /// structure ([`KktSolver::fits`]).
-    fn reset(&mut self) {
+    pub(super) fn reset(&mut self) {
         self.kkt.reset();
         self.solver.reset();
         self.derivs.fill(PointDerivatives {
@@ -167,43 +167,6 @@ impl Workspace {
     }
 }
 
-/// The storage of a Newton system: its workspace and the bounds, kept
-/// between the solves of a re-plan sequence so that a re-plan allocates
-/// none of it ([`Storage::reuse_for`]).
-pub struct Storage {
-    ws: Workspace,
-    bounds: Bounds,
-}
-
-impl Storage {
-    /// Storage for `nlp`.
-    pub fn new(nlp: &Nlp) -> Storage {
-        Storage {
-            ws: Workspace::new(nlp),
-            bounds: Bounds::new(nlp),
-        }
-    }
-
-    /// This storage, reset to [`Storage::new`]'s state, for `nlp` when its
-    /// structure fits (the same mesh and fixed variables); else new storage.
-    pub fn reuse_for(mut self, nlp: &Nlp) -> Storage {
-        if !self.ws.solver.fits(nlp) || self.ws.c.len() != nlp.n_con() {
-            return Storage::new(nlp);
-        }
-        self.ws.reset();
-        self.bounds.refill(nlp);
-        self
-    }
-}
-
-impl std::fmt::Debug for Storage {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Storage")
-            .field("variables", &self.bounds.lo.len())
-            .finish_non_exhaustive()
-    }
-}
-
 /// The barrier problem of P2 at an iterate, and its Newton system.
 pub(super) struct Newton<'a> {
     pub(super) nlp: &'a Nlp,
@@ -214,24 +177,21 @@ pub(super) struct Newton<'a> {
 }
 
 impl<'a> Newton<'a> {
-    /// The system of `nlp` in `storage` (made for `nlp`:
-    /// [`Storage::new`] or [`Storage::reuse_for`]).
-    pub(super) fn with_storage(nlp: &'a Nlp, storage: Storage) -> Self {
+    /// The system of `nlp` in `ws` and `bounds` (made or refilled for
+    /// `nlp`).
+    pub(super) fn with_parts(nlp: &'a Nlp, ws: Workspace, bounds: Bounds) -> Self {
         let nv = nlp.n_var();
         Newton {
             nlp,
-            ws: storage.ws,
-            bounds: storage.bounds,
+            ws,
+            bounds,
             n_primal: (0..nv).filter(|&j| !nlp.is_fixed(j)).count(),
         }
     }
 
-    /// Its storage, for the next solve of the same structure.
-    pub(super) fn into_storage(self) -> Storage {
-        Storage {
-            ws: self.ws,
-            bounds: self.bounds,
-        }
+    /// Its workspace and bounds, for the next solve of the same structure.
+    pub(super) fn into_parts(self) -> (Workspace, Bounds) {
+        (self.ws, self.bounds)
     }
 
     /// φ_μ(w) = f(w) + barrier.

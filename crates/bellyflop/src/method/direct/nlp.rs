@@ -540,38 +540,59 @@ impl Nlp {
     /// The scaled vector as a trajectory of the exact LCvx formulation
     /// (ω = ln m, σ = T/m, χ), which [`crate::solution::Solution`] reports.
     pub fn to_trajectory(&self, w: &[f64]) -> crate::collocation::trajectory::Trajectory {
+        let mut t = crate::collocation::trajectory::Trajectory {
+            x: Vec::new(),
+            u: Vec::new(),
+            tf_s: 0.0,
+        };
+        self.to_trajectory_into(w, &mut t);
+        t
+    }
+
+    /// [`Self::to_trajectory`] into `t`, in its vectors' own storage.
+    pub fn to_trajectory_into(
+        &self,
+        w: &[f64],
+        t: &mut crate::collocation::trajectory::Trajectory,
+    ) {
         use crate::problem::dynamics::{ix, NU_MAX, NX};
-        let x: Vec<[f64; NX]> = (0..=self.n)
-            .map(|k| {
-                let p = self.physical_node(w, k);
-                let mut x = [0.0; NX];
-                x[..6].copy_from_slice(&p[..6]);
-                x[ix::OMEGA] = p[slot::M].ln();
-                x[ix::DELTA] = p[slot::DELTA];
-                x
-            })
-            .collect();
-        let u: Vec<[f64; NU_MAX]> = (0..self.n)
-            .map(|i| {
-                let p = self.physical_node(w, i);
-                let mut u = [0.0; NU_MAX];
-                u[0] = p[slot::T] / p[slot::M];
-                u[1] = p[slot::CHI];
-                u
-            })
-            .collect();
-        crate::collocation::trajectory::Trajectory {
-            x,
-            u,
-            tf_s: self.tf_s(w),
-        }
+        t.x.clear();
+        t.x.extend((0..=self.n).map(|k| {
+            let p = self.physical_node(w, k);
+            let mut x = [0.0; NX];
+            x[..6].copy_from_slice(&p[..6]);
+            x[ix::OMEGA] = p[slot::M].ln();
+            x[ix::DELTA] = p[slot::DELTA];
+            x
+        }));
+        t.u.clear();
+        t.u.extend((0..self.n).map(|i| {
+            let p = self.physical_node(w, i);
+            let mut u = [0.0; NU_MAX];
+            u[0] = p[slot::T] / p[slot::M];
+            u[1] = p[slot::CHI];
+            u
+        }));
+        t.tf_s = self.tf_s(w);
     }
 
     /// The scaled vector of an exact-formulation trajectory (the inverse of
     /// [`Nlp::to_trajectory`]), for warm starts from an earlier plan.
     pub fn from_trajectory(&self, t: &crate::collocation::trajectory::Trajectory) -> Vec<f64> {
+        let mut w = Vec::new();
+        self.from_trajectory_into(t, &mut w);
+        w
+    }
+
+    /// [`Self::from_trajectory`] into `w`, in its own storage.
+    pub fn from_trajectory_into(
+        &self,
+        t: &crate::collocation::trajectory::Trajectory,
+        w: &mut Vec<f64>,
+    ) {
         use crate::problem::dynamics::ix;
-        let mut w = vec![0.0; self.n_var()];
+        w.clear();
+        w.resize(self.n_var(), 0.0);
         for k in 0..=self.n {
             let x = &t.x[k];
             let m = x[ix::OMEGA].exp();
@@ -580,10 +601,9 @@ impl Nlp {
             state[slot::M] = m;
             state[slot::DELTA] = x[ix::DELTA];
             let control = (k < self.n).then(|| (t.u[k][0] * m, t.u[k][1]));
-            self.set_node(&mut w, k, &state, control);
+            self.set_node(w, k, &state, control);
         }
         w[self.tf_idx()] = t.tf_s / self.tf_scale;
-        w
     }
 
     /// The scaled start point on this NLP's mesh from a solution on any

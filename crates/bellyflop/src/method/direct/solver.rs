@@ -2,13 +2,13 @@
 //! straight line, a pass on a new mesh warm from the last answer (primal–dual
 //! with its multipliers), and a re-plan from the shifted plan.
 
-use crate::collocation::plan::shifted_reference;
+use crate::collocation::plan::shifted_reference_into;
 use crate::collocation::trajectory::Trajectory;
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::Scenario;
-use crate::input::settings::{Formulation, SolverSettings};
-use crate::method::direct::newton::Storage;
+use crate::input::settings::{Formulation, Method, SolverSettings};
 use crate::method::direct::nlp::{Duals, Nlp};
+use crate::method::direct::Storage;
 use crate::method::direct::{self, Start as DirectStart};
 use crate::method::observer::Observer;
 use crate::method::{Replan, Solver, Start};
@@ -49,6 +49,9 @@ struct ReplanWork {
     layout: Option<MeshLayout>,
     nlp: Nlp,
     storage: Storage,
+    /// The shifted plan on the mesh, and as the NLP's start point.
+    guess: Trajectory,
+    w0: Vec<f64>,
 }
 
 /// An answer's NLP and multipliers, and what identifies that answer.
@@ -101,9 +104,51 @@ impl Solver for DirectSolver {
                 sol
             }
             Start::Replan(replan) => {
-                self.last = None;
-                self.replan(scenario, settings, &replan, observer)
+                let mut out = Solution::empty(Method::Direct);
+                self.solve_into(
+                    scenario,
+                    settings,
+                    Start::Replan(replan),
+                    observer,
+                    &mut out,
+                );
+                out
             }
+        }
+    }
+
+    /// Build the re-plans' NLP and storage for `scenario`'s mesh now, with
+    /// room for `direct_max_iterations`, so that the first re-plan does
+    /// not allocate either.
+    fn prepare_replans(
+        &mut self,
+        scenario: &Scenario,
+        settings: &SolverSettings,
+        direct_max_iterations: usize,
+    ) {
+        let sv = replan_settings(settings, direct_max_iterations);
+        let mut work = self.replan_work(scenario, &sv);
+        work.reserve(direct_max_iterations);
+        self.replan = Some(work);
+    }
+
+    /// A re-plan writes into `out`'s storage, with the last re-plan's NLP
+    /// and solver storage: none of it allocates once the sizes are set
+    /// (issue 27). Other starts are [`Solver::solve`]'s.
+    fn solve_into(
+        &mut self,
+        scenario: &Scenario,
+        settings: &SolverSettings,
+        start: Start<'_>,
+        observer: &mut dyn Observer,
+        out: &mut Solution,
+    ) {
+        match start {
+            Start::Replan(replan) => {
+                self.last = None;
+                self.replan_into(scenario, settings, &replan, observer, out);
+            }
+            other => *out = self.solve(scenario, settings, other, observer),
         }
     }
 }
@@ -168,70 +213,111 @@ impl DirectSolver {
                     layout: d.mesh.clone(),
                     storage: Storage::new(&nlp),
                     nlp,
+                    guess: Trajectory {
+                        x: Vec::new(),
+                        u: Vec::new(),
+                        tf_s: 0.0,
+                    },
+                    w0: Vec::new(),
                 }
             }
         }
     }
 
-    /// A direct re-plan: the interior-point method from the shifted plan
-    /// (its states and controls on the new mesh, [`shifted_reference`]), at
-    /// μ_0 = [`direct::WARM_MU`], within [`Replan::direct_max_iterations`];
-    /// a cold solve too when the warm one lands far below the plan's
-    /// prediction.
-    fn replan(
+    /// A direct re-plan into `out`: the interior-point method from the
+    /// shifted plan (its states and controls on the new mesh,
+    /// [`shifted_reference`](crate::collocation::plan::shifted_reference)), at μ_0 = [`direct::WARM_MU`], within
+    /// [`Replan::direct_max_iterations`]; a cold solve too when the warm
+    /// one lands far below the plan's prediction.
+    fn replan_into(
         &mut self,
         s: &Scenario,
         settings: &SolverSettings,
         replan: &Replan<'_>,
         observer: &mut dyn Observer,
-    ) -> Solution {
-        let mut sv = settings.clone();
-        sv.formulation = Formulation::Exact;
-        sv.direct.mu_init = direct::WARM_MU;
-        sv.direct.max_iterations = replan.direct_max_iterations;
-        let mut work = self.replan_work(s, &sv);
-        let (warm, storage) = warm_replan(s, &sv, replan, &work.nlp, work.storage, observer);
-        work.storage = storage;
-        self.replan = Some(work);
-        basin_check(s, &sv, warm, observer)
+        out: &mut Solution,
+    ) {
+        let sv = replan_settings(settings, replan.direct_max_iterations);
+        let work = self.replan_work(s, &sv);
+        self.replan = Some(warm_replan(s, &sv, replan, work, observer, out));
+        // By Bellman's principle the new optimum is near the plan's own
+        // prediction (the final-mass guess); far below it, the warm start
+        // has slid into another basin. Solve cold too and keep the better.
+        let expected_kg = s.discretization.final_mass_guess_kg;
+        if out.status == Status::Solved && out.final_mass_kg >= expected_kg - BASIN_TOLERANCE_KG {
+            return;
+        }
+        let warm = std::mem::replace(out, Solution::empty(Method::Direct));
+        *out = with_cold(s, &sv, warm, observer);
     }
 }
 
-/// The warm solve of a re-plan on `nlp` (refreshed for `s`), in `storage`.
+/// A direct re-plan's settings: the exact formulation, μ_0 =
+/// [`direct::WARM_MU`] and the re-plan's iteration budget.
+fn replan_settings(settings: &SolverSettings, max_iterations: usize) -> SolverSettings {
+    let mut sv = settings.clone();
+    sv.formulation = Formulation::Exact;
+    sv.direct.mu_init = direct::WARM_MU;
+    sv.direct.max_iterations = max_iterations;
+    sv
+}
+
+impl ReplanWork {
+    /// Room for a re-plan of up to `max_iterations` iterations.
+    fn reserve(&mut self, max_iterations: usize) {
+        let n = self.nlp.n;
+        self.guess
+            .x
+            .reserve((n + 1).saturating_sub(self.guess.x.len()));
+        self.guess.u.reserve(n.saturating_sub(self.guess.u.len()));
+        self.w0
+            .reserve(self.nlp.n_var().saturating_sub(self.w0.len()));
+        self.storage.reserve(&self.nlp, max_iterations);
+    }
+}
+
+/// The warm solve of a re-plan into `out`, on `work`'s NLP (refreshed for
+/// `s`) and in its storage; the work comes back for the next re-plan.
 fn warm_replan(
     s: &Scenario,
     sv: &SolverSettings,
     replan: &Replan<'_>,
-    nlp: &Nlp,
-    storage: Storage,
+    work: ReplanWork,
     observer: &mut dyn Observer,
-) -> (Solution, Storage) {
+    out: &mut Solution,
+) -> ReplanWork {
+    let ReplanWork {
+        nlp,
+        storage,
+        mut guess,
+        mut w0,
+        ..
+    } = work;
     let (plan, elapsed_s) = (replan.plan, replan.elapsed_s);
     let mut x0 = s.initial.state_si();
     x0[ix::OMEGA] = s.initial.mass_kg.ln();
-    let mut guess = shifted_reference(plan, elapsed_s, &nlp.mesh, &x0, sv.formulation);
+    shifted_reference_into(plan, elapsed_s, &nlp.mesh, &x0, sv.formulation, &mut guess);
     blend_offset(&mut guess, &plan.state_at(elapsed_s), &nlp.mesh.nodes);
-    let w0 = nlp.from_trajectory(&guess);
+    nlp.from_trajectory_into(&guess, &mut w0);
     let start = DirectStart::Primal(&w0, None);
-    let (warm, _, storage) = direct::solve_in(sv, nlp, start, observer, storage);
-    (warm, storage)
+    let storage = direct::solve_into(sv, &nlp, start, observer, storage, out);
+    ReplanWork {
+        nlp,
+        storage,
+        guess,
+        w0,
+        ..work
+    }
 }
 
-/// A warm re-plan's answer, or when it lands far below the plan's
-/// prediction, the better of it and a cold solve.
-fn basin_check(
+/// The better of a warm re-plan that slid into another basin and a cold
+/// solve, with both solves' iterations and time.
+fn with_cold(
     s: &Scenario,
     sv: &SolverSettings,
     warm: Solution,
     observer: &mut dyn Observer,
 ) -> Solution {
-    // By Bellman's principle the new optimum is near the plan's own
-    // prediction (the final-mass guess); far below it, the warm start
-    // has slid into another basin. Solve cold too and keep the better.
-    let expected_kg = s.discretization.final_mass_guess_kg;
-    if warm.status == Status::Solved && warm.final_mass_kg >= expected_kg - BASIN_TOLERANCE_KG {
-        return warm;
-    }
     let cold = direct::solve(s, sv, observer);
     let better = cold.status == Status::Solved
         && (warm.status != Status::Solved || cold.final_mass_kg > warm.final_mass_kg);
