@@ -163,11 +163,14 @@ pub struct FlightSolver {
     /// `bf_solve`, the measurement's time after an adopted re-plan.
     plan_start_s: f64,
     node_count: usize,
+    /// The last answer, whose storage each re-plan reuses: after the
+    /// first re-plan a direct re-plan allocates nothing (issue 27).
+    answer: Solution,
 }
 
 /// What a solve returned, with whether it became the plan.
-pub struct Answer {
-    pub solution: Solution,
+pub struct Answer<'a> {
+    pub solution: &'a Solution,
     pub adopted: bool,
 }
 
@@ -185,6 +188,7 @@ impl FlightSolver {
             problem_scvx_max_iterations: case.solver.max_iterations,
             plan_start_s: 0.0,
             node_count: problem.node_count(),
+            answer: Solution::empty(settings.method),
         })
     }
 
@@ -212,34 +216,43 @@ impl FlightSolver {
 
     /// Cold solve from the problem's initial state, as the planner's first
     /// plan; the plan then starts at flight time 0.
-    pub fn solve(&mut self) -> Answer {
+    pub fn solve(&mut self) -> Answer<'_> {
         self.set_budget(false);
         self.planner.plan = None;
         let mut deadline = Deadline::after(self.settings.time_budget);
-        let solution = self.planner.cold(&mut deadline);
-        let adopted = solution.status == Status::Solved;
+        self.answer = self.planner.cold(&mut deadline);
+        // The re-plans' storage, made here so that bf_replan allocates
+        // nothing (issue 27).
+        self.set_budget(true);
+        self.planner.prepare_replans(&mut self.answer);
+        let adopted = self.answer.status == Status::Solved;
         if adopted {
             self.plan_start_s = 0.0;
         }
-        Answer { solution, adopted }
+        Answer {
+            solution: &self.answer,
+            adopted,
+        }
     }
 
     /// Re-plan from `measured` at flight time `t_now_s`, warm-started from
     /// the current plan (a cold solve when there is none).
-    pub fn replan(&mut self, measured: &bf_state, t_now_s: f64) -> Result<Answer, Failure> {
+    pub fn replan(&mut self, measured: &bf_state, t_now_s: f64) -> Result<Answer<'_>, Failure> {
         let elapsed_s = self.elapsed_s(t_now_s)?;
         self.set_budget(true);
         let mut deadline = Deadline::after(self.settings.time_budget);
         let state = initial_state(measured);
-        let solution = self
-            .planner
-            .replan(&state, elapsed_s, &mut deadline)
+        self.planner
+            .replan_into(&state, elapsed_s, &mut deadline, &mut self.answer)
             .map_err(|e| Failure::from(e).context("measured_state"))?;
-        let adopted = solution.status == Status::Solved;
+        let adopted = self.answer.status == Status::Solved;
         if adopted {
             self.plan_start_s = t_now_s;
         }
-        Ok(Answer { solution, adopted })
+        Ok(Answer {
+            solution: &self.answer,
+            adopted,
+        })
     }
 
     /// Time since the current plan's start \[s\]; `t_now_s` must be finite
