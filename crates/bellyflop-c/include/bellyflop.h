@@ -365,6 +365,9 @@ enum bf_error bf_solver_node_count(const struct bf_solver *solver, size_t *out);
  within the settings' `bf_solve` budgets, into `*solution`. A solved
  answer becomes the plan, starting at flight time 0. `BF_ERROR_OK` means
  the method ran: read `solution->status`.
+
+ This is the flight loop's setup call: it allocates, and it prepares the
+ re-plans' storage, so that `bf_replan` allocates nothing after it.
  */
 enum bf_error bf_solve(struct bf_solver *solver, struct bf_solution *solution);
 
@@ -380,6 +383,12 @@ enum bf_error bf_solve(struct bf_solver *solver, struct bf_solution *solution);
  `t_now_s` must be finite and not before the current plan's start; the
  state within the problem's ranges (`BF_ERROR_INVALID_INPUT` otherwise,
  nothing solved).
+
+ With the direct method, after a solved `bf_solve`, a re-plan that
+ converges allocates no heap memory (tests/allocations.rs counts). Off
+ that path it may: a re-plan that does not converge (its message), one
+ that lands far below the plan's prediction (a cold retry), one without
+ a plan (a cold solve), and every SCvx re-plan.
  */
 enum bf_error bf_replan(struct bf_solver *solver,
                         const struct bf_state *measured_state,

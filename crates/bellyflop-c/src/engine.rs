@@ -163,8 +163,9 @@ pub struct FlightSolver {
     /// `bf_solve`, the measurement's time after an adopted re-plan.
     plan_start_s: f64,
     node_count: usize,
-    /// The last answer, whose storage each re-plan reuses: after the
-    /// first re-plan a direct re-plan allocates nothing (issue 27).
+    /// The last answer, whose storage each re-plan reuses: after
+    /// `solve` (which also prepares the re-plans' storage) a direct
+    /// re-plan allocates nothing (issue 27).
     answer: Solution,
 }
 

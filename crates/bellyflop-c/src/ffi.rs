@@ -373,6 +373,9 @@ unsafe fn write_solution(solution: *mut bf_solution, nodes: *mut bf_node, answer
 /// within the settings' `bf_solve` budgets, into `*solution`. A solved
 /// answer becomes the plan, starting at flight time 0. `BF_ERROR_OK` means
 /// the method ran: read `solution->status`.
+///
+/// This is the flight loop's setup call: it allocates, and it prepares the
+/// re-plans' storage, so that `bf_replan` allocates nothing after it.
 #[no_mangle]
 pub extern "C" fn bf_solve(solver: *mut bf_solver, solution: *mut bf_solution) -> bf_error {
     guard(|| {
@@ -402,6 +405,12 @@ pub extern "C" fn bf_solve(solver: *mut bf_solver, solution: *mut bf_solution) -
 /// `t_now_s` must be finite and not before the current plan's start; the
 /// state within the problem's ranges (`BF_ERROR_INVALID_INPUT` otherwise,
 /// nothing solved).
+///
+/// With the direct method, after a solved `bf_solve`, a re-plan that
+/// converges allocates no heap memory (tests/allocations.rs counts). Off
+/// that path it may: a re-plan that does not converge (its message), one
+/// that lands far below the plan's prediction (a cold retry), one without
+/// a plan (a cold solve), and every SCvx re-plan.
 #[no_mangle]
 pub extern "C" fn bf_replan(
     solver: *mut bf_solver,
