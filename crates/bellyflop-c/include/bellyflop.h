@@ -366,8 +366,9 @@ enum bf_error bf_solver_node_count(const struct bf_solver *solver, size_t *out);
  answer becomes the plan, starting at flight time 0. `BF_ERROR_OK` means
  the method ran: read `solution->status`.
 
- This is the flight loop's setup call: it allocates, and it prepares the
- re-plans' storage, so that `bf_replan` allocates nothing after it.
+ With the direct method, a cold solve that converges allocates no heap
+ memory: `bf_solver_new` made its storage (tests/allocations.rs
+ counts). Off that path it may (see `bf_replan`).
  */
 enum bf_error bf_solve(struct bf_solver *solver, struct bf_solution *solution);
 
@@ -384,11 +385,13 @@ enum bf_error bf_solve(struct bf_solver *solver, struct bf_solution *solution);
  state within the problem's ranges (`BF_ERROR_INVALID_INPUT` otherwise,
  nothing solved).
 
- With the direct method, after a solved `bf_solve`, a re-plan that
- converges allocates no heap memory (tests/allocations.rs counts). Off
- that path it may: a re-plan that does not converge (its message), one
- that lands far below the plan's prediction (a cold retry), one without
- a plan (a cold solve), and every SCvx re-plan.
+ With the direct method, a re-plan that converges allocates no heap
+ memory: `bf_solver_new` made its storage (tests/allocations.rs
+ counts). Off that path it may: a solve that does not converge or ends
+ below the ground (its message), a re-plan that lands far below the
+ plan's prediction (a cold retry), one without a plan yet (the cold
+ solve of a new answer's size), and every SCvx solve (Clarabel builds
+ each subproblem).
  */
 enum bf_error bf_replan(struct bf_solver *solver,
                         const struct bf_state *measured_state,

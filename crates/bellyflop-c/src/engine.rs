@@ -182,7 +182,7 @@ impl FlightSolver {
         let case = &problem.case;
         let mut planner = Planner::new(case.scenario.clone(), case.solver.clone());
         planner.method = settings.method;
-        Ok(FlightSolver {
+        let mut solver = FlightSolver {
             planner,
             settings,
             problem_direct_max_iterations: case.solver.direct.max_iterations,
@@ -190,7 +190,24 @@ impl FlightSolver {
             plan_start_s: 0.0,
             node_count: problem.node_count(),
             answer: Solution::empty(settings.method),
-        })
+        };
+        solver.prepare();
+        Ok(solver)
+    }
+
+    /// The setup: the storage of every later solve and re-plan (the
+    /// method's NLPs and workspaces, the answer's history), with room for
+    /// both budgets, so that `solve` and `replan` allocate nothing on
+    /// their converging paths (issue 27).
+    fn prepare(&mut self) {
+        self.set_budget(true);
+        let replan_iterations = self.planner.direct_max_iterations;
+        self.set_budget(false);
+        let cold_iterations = self.planner.settings.direct.max_iterations;
+        let p = &mut self.planner;
+        p.settings.direct.max_iterations = cold_iterations.max(replan_iterations);
+        p.direct_max_iterations = replan_iterations;
+        p.prepare(&mut self.answer);
     }
 
     /// Nodes of an answer: N + 1.
@@ -219,13 +236,9 @@ impl FlightSolver {
     /// plan; the plan then starts at flight time 0.
     pub fn solve(&mut self) -> Answer<'_> {
         self.set_budget(false);
-        self.planner.plan = None;
+        self.planner.clear_plan();
         let mut deadline = Deadline::after(self.settings.time_budget);
-        self.answer = self.planner.cold(&mut deadline);
-        // The re-plans' storage, made here so that bf_replan allocates
-        // nothing (issue 27).
-        self.set_budget(true);
-        self.planner.prepare_replans(&mut self.answer);
+        self.planner.cold_into(&mut deadline, &mut self.answer);
         let adopted = self.answer.status == Status::Solved;
         if adopted {
             self.plan_start_s = 0.0;

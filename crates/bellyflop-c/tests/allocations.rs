@@ -1,8 +1,7 @@
-//! Heap allocations inside `bf_replan` after setup, counted by a global
-//! allocator wrapper (as `crates/bellyflop/examples/allocations.rs` counts
-//! the library's). Setup is `bf_solver_new` and the cold `bf_solve`, which
-//! also builds the re-plans' storage; each `bf_replan` after it must
-//! allocate nothing.
+//! Heap allocations inside `bf_solve` and `bf_replan` after setup
+//! (`bf_solver_new`, on the same thread), counted by a global allocator
+//! wrapper (as `crates/bellyflop/examples/allocations.rs` counts the
+//! library's): none, on the converging path of the direct method.
 //!
 //! `cargo test -p bellyflop-c --test allocations -- --nocapture` prints
 //! the counts.
@@ -44,10 +43,11 @@ fn allocations_in(f: impl FnOnce()) -> usize {
     ALLOCS.load(Relaxed) - before
 }
 
-/// Allocations of a cold `bf_solve` and of each of 20 `bf_replan` calls
-/// from states along the plan, measured off it (a navigation error of
-/// decimetres and decimetres per second), on the paper's case.
-fn counts() -> (usize, Vec<usize>) {
+/// Allocations of a cold `bf_solve`, of each of 20 `bf_replan` calls from
+/// states along the plan, measured off it (a navigation error of
+/// decimetres and decimetres per second), and of a second cold `bf_solve`,
+/// on the paper's case.
+fn counts() -> (usize, Vec<usize>, usize) {
     let mut problem = std::ptr::null_mut();
     assert_eq!(bf_problem_paper(&mut problem), bf_error::Ok);
     let settings = bf_settings_default();
@@ -87,18 +87,22 @@ fn counts() -> (usize, Vec<usize>) {
             a
         })
         .collect();
+    let again = allocations_in(|| assert_eq!(bf_solve(solver, &mut sol), bf_error::Ok));
+    assert_eq!(sol.status, bf_status::Solved);
     bf_solver_free(solver);
     bf_problem_free(problem);
-    (cold, replans)
+    (cold, replans, again)
 }
 
-/// No allocation inside a re-plan once the solver is set up.
+/// No allocation inside a solve or a re-plan once the solver is set up.
 #[test]
-fn replans_after_setup_do_not_allocate() {
-    let (cold, replans) = counts();
-    println!("allocations: cold bf_solve {cold}; bf_replan {replans:?}");
+fn solves_and_replans_after_setup_do_not_allocate() {
+    let (cold, replans, again) = counts();
+    println!("allocations: cold bf_solve {cold}; bf_replan {replans:?}; bf_solve again {again}");
+    assert_eq!(cold, 0, "the cold bf_solve allocated");
     assert!(
         replans.iter().all(|&a| a == 0),
         "bf_replan allocated: {replans:?}"
     );
+    assert_eq!(again, 0, "the second bf_solve allocated");
 }

@@ -57,6 +57,9 @@ pub struct Planner {
     /// The solver of `solver_method`, made anew when `method` changes.
     solver: Box<dyn Solver>,
     solver_method: Method,
+    /// A plan's storage, kept while there is no plan ([`Self::clear_plan`],
+    /// [`Self::prepare`]), for the next one to fill.
+    spare_plan: Option<Plan>,
 }
 
 impl Planner {
@@ -69,6 +72,7 @@ impl Planner {
             scenario,
             settings,
             plan: None,
+            spare_plan: None,
             warm_relaxed_iterations: 0,
             warm_proximal_weight: WARM_PROXIMAL_WEIGHT,
             direct_max_iterations: DIRECT_REPLAN_ITERATIONS,
@@ -78,26 +82,32 @@ impl Planner {
     /// Cold solve from the straight line with the planner's method; a
     /// solved answer becomes the plan.
     pub fn cold(&mut self, observer: &mut dyn Observer) -> Solution {
-        let s = self.scenario.clone();
-        let sol = self.solve(&s, Start::StraightLine, observer);
-        self.adopt(sol)
+        let mut out = Solution::empty(self.method);
+        self.cold_into(observer, &mut out);
+        out
     }
 
-    /// The planner's method on `s` from `start`.
-    fn solve(&mut self, s: &Scenario, start: Start<'_>, observer: &mut dyn Observer) -> Solution {
+    /// [`Self::cold`] into `out`, in its own storage and the plan's: with
+    /// the direct method, after [`Self::prepare`], a cold solve that
+    /// converges allocates nothing.
+    pub fn cold_into(&mut self, observer: &mut dyn Observer, out: &mut Solution) {
+        self.use_method();
+        let Planner {
+            scenario,
+            settings,
+            solver,
+            ..
+        } = self;
+        solver.solve_into(scenario, settings, Start::StraightLine, observer, out);
+        self.adopt_into(out);
+    }
+
+    /// Make the planner's method's solver if the method changed.
+    fn use_method(&mut self) {
         if self.solver_method != self.method {
             self.solver = method::solver(self.method);
             self.solver_method = self.method;
         }
-        self.solver.solve(s, &self.settings, start, observer)
-    }
-
-    /// Make `sol` the plan if it is solved; the old plan stays otherwise.
-    fn adopt(&mut self, sol: Solution) -> Solution {
-        if sol.status == crate::Status::Solved {
-            self.plan = Some(sol.plan());
-        }
-        sol
     }
 
     /// Re-plan from `state`, measured `elapsed_s` after the current plan's
@@ -167,10 +177,7 @@ impl Planner {
         );
         s.validate()?;
         self.settings.validate()?;
-        if self.solver_method != self.method {
-            self.solver = method::solver(self.method);
-            self.solver_method = self.method;
-        }
+        self.use_method();
         let Planner {
             scenario,
             settings,
@@ -195,29 +202,51 @@ impl Planner {
         Ok(())
     }
 
-    /// Make, now, what re-plans need, so that a direct re-plan into `out`
-    /// allocates nothing from the first one on: the method's re-plan
-    /// storage and room for `out`'s iteration history. For a flight
-    /// loop's setup, after the cold solve.
-    pub fn prepare_replans(&mut self, out: &mut Solution) {
-        if self.solver_method != self.method {
-            self.solver = method::solver(self.method);
-            self.solver_method = self.method;
+    /// Make, now, what cold solves and re-plans need, so that with the
+    /// direct method neither allocates into `out` from the first one on:
+    /// the method's storage for the scenario's mesh, with room for the cold
+    /// budget of the planner's settings and for `direct_max_iterations`,
+    /// and room for `out`'s iteration history. For a flight loop's setup.
+    pub fn prepare(&mut self, out: &mut Solution) {
+        self.use_method();
+        let replan = self.direct_max_iterations;
+        self.solver.prepare(&self.scenario, &self.settings, replan);
+        // An answer and a plan of the mesh's sizes: the straight line,
+        // which no solve has iterated on (`out` is overwritten by the next).
+        *out = method::guess_answer(
+            &self.scenario,
+            &self.settings,
+            crate::Status::NotConverged,
+            "no solve yet: the straight-line guess".into(),
+            0.0,
+        );
+        if self.plan.is_none() && self.spare_plan.is_none() {
+            self.spare_plan = Some(out.plan());
         }
-        let budget = self.direct_max_iterations;
-        self.solver
-            .prepare_replans(&self.scenario, &self.settings, budget);
-        out.history.direct.reserve(budget);
+        let cold = self.settings.direct.max_iterations;
+        out.history.direct.reserve(cold.max(replan));
     }
 
-    /// Make `sol` the plan (in the old plan's storage) if it is solved; the
-    /// old plan stays otherwise.
+    /// Make `sol` the plan (in the old plan's storage, or the spare's) if
+    /// it is solved; the old plan stays otherwise.
     fn adopt_into(&mut self, sol: &Solution) {
-        if sol.status == crate::Status::Solved {
-            match &mut self.plan {
-                Some(plan) => sol.refill_plan(plan),
-                None => self.plan = Some(sol.plan()),
-            }
+        if sol.status != crate::Status::Solved {
+            return;
+        }
+        if self.plan.is_none() {
+            self.plan = self.spare_plan.take();
+        }
+        match &mut self.plan {
+            Some(plan) => sol.refill_plan(plan),
+            None => self.plan = Some(sol.plan()),
+        }
+    }
+
+    /// Forget the plan (the next solve starts from none), keeping its
+    /// storage for the next.
+    pub fn clear_plan(&mut self) {
+        if let Some(plan) = self.plan.take() {
+            self.spare_plan = Some(plan);
         }
     }
 }

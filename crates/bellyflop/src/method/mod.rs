@@ -76,14 +76,16 @@ pub trait Solver: std::fmt::Debug + Send {
         *out = self.solve(scenario, settings, start, observer);
     }
 
-    /// Make, now, what re-plans of `scenario`'s mesh need, so that none
-    /// allocates later (the direct method's NLP and storage; by default
-    /// nothing). `direct_max_iterations`: a direct re-plan's budget.
-    fn prepare_replans(
+    /// Make, now, what cold solves and re-plans of `scenario`'s mesh need
+    /// (the direct method's NLPs and storage; by default nothing), so that
+    /// neither allocates later into an answer of the right size.
+    /// `settings` carry the cold budget; `direct_replan_iterations` is a
+    /// direct re-plan's.
+    fn prepare(
         &mut self,
         _scenario: &Scenario,
         _settings: &SolverSettings,
-        _direct_max_iterations: usize,
+        _direct_replan_iterations: usize,
     ) {
     }
 }

@@ -129,6 +129,12 @@ impl Storage {
             .reserve(crate::method::direct::line_search::FILTER_CAPACITY);
     }
 
+    /// Do, on this thread, the allocation that the KKT solve's first matrix
+    /// product would ([`crate::method::direct::kkt::KktSolver::warm_up_thread`]).
+    pub fn warm_up_thread(&self) {
+        self.ws.solver.warm_up_thread();
+    }
+
     /// The last iterate's primal point, and a defect buffer of the NLP's
     /// size (the workspace's, free between solves).
     pub(super) fn point_and_defects(&mut self) -> (&[f64], &mut [f64]) {

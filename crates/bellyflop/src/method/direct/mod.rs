@@ -28,38 +28,38 @@
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
+mod answer;
 mod barrier;
+pub mod cold;
 mod driver;
 mod inertia;
 mod iterate;
 #[doc(hidden)] // internals, for the KKT benchmarks and tests; not the API
 pub mod kkt;
 mod line_search;
+mod mesh_transfer;
 mod newton;
 #[doc(hidden)] // internals, for the benchmarks and tests; not the API
 pub mod nlp;
 mod restoration;
 pub mod solver;
 
-use std::time::Instant;
-
 use crate::input::settings::DirectSettings;
 use crate::input::settings::Method;
 use crate::input::settings::SolverSettings;
+pub use crate::method::direct::answer::checks;
+use crate::method::direct::answer::solve_into;
 pub use crate::method::direct::barrier::ADAPTIVE_WINDOW;
+use crate::method::direct::cold::ColdWork;
+pub use crate::method::direct::cold::WARM_MU;
 use crate::method::direct::driver::Driver;
 use crate::method::direct::driver::Storage;
 pub use crate::method::direct::driver::{NlpResult, Start};
-use crate::method::direct::iterate::inf_norm;
+pub use crate::method::direct::mesh_transfer::interpolate;
 pub use crate::method::direct::newton::lagrangian_blocks;
 use crate::method::direct::nlp::Duals;
-use crate::method::direct::nlp::{Nlp, NL, NS};
+use crate::method::direct::nlp::Nlp;
 use crate::method::observer::Observer;
-use crate::solution::Status;
-use crate::solution::{History, SolveOutcome};
-
-/// μ_0 of the fine solve after a coarse start, and of warm starts.
-pub const WARM_MU: f64 = 1e-4;
 
 /// Solve P2 from the scaled point `w0` (pushed inside its bounds).
 pub fn solve_nlp(
@@ -88,37 +88,6 @@ pub fn solve_nlp_warm(
     Driver::new(nlp, settings).run(Start::PrimalDual(w0, duals), observer)
 }
 
-/// Checks of a P2 answer against the nonlinear problem: its own defects,
-/// the thrust bounds at every reported value and the ground. The thrust is
-/// along the nozzle by construction (gap 0, alignment 1).
-pub fn checks(nlp: &Nlp, w: &[f64]) -> crate::solution::Checks {
-    checks_with(nlp, w, &mut vec![0.0; nlp.n_con()])
-}
-
-/// [`checks`] with the defects computed into `c` (the NLP's size).
-fn checks_with(nlp: &Nlp, w: &[f64], c: &mut [f64]) -> crate::solution::Checks {
-    use crate::method::direct::nlp::slot;
-    nlp.defects(w, c);
-    let m = &nlp.model;
-    let mut bound = 0.0f64;
-    for i in 0..nlp.n {
-        let t = nlp.thrust_n(w, i);
-        bound = bound.max(m.min_thrust_n - t).max(t - m.max_thrust_n);
-    }
-    let z_f = nlp.xf[slot::Z];
-    let min_altitude_margin_m = (0..=nlp.n)
-        .map(|k| nlp.physical(slot::Z, w[nlp.idx(k, slot::Z)]) - z_f)
-        .fold(f64::INFINITY, f64::min);
-    crate::solution::Checks {
-        relaxation_gap: 0.0,
-        thrust_alignment_min: 1.0,
-        thrust_bound_violation_n: bound,
-        max_defect: inf_norm(c),
-        virtual_control: 0.0,
-        min_altitude_margin_m,
-    }
-}
-
 /// Solve a scenario with the direct method from the reference's straight
 /// line (states linear in τ, T mid-range, χ = 0, the scenario's guesses).
 pub fn solve(
@@ -137,92 +106,10 @@ pub fn solve_keeping_duals(
     settings: &SolverSettings,
     observer: &mut dyn Observer,
 ) -> (crate::Solution, Nlp, Duals) {
-    let nlp = Nlp::new(scenario, settings);
-    let d = &scenario.discretization;
-    let w0 = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
-    let coarse_n = settings.direct.coarse_nodes;
-    if coarse_n < 4 || 2 * coarse_n > d.nodes {
-        let (sol, duals) = solve_from_start(settings, &nlp, Start::Primal(&w0, None), observer);
-        return (sol, nlp, duals);
-    }
-    // Every phase's iterations and time are counted in the answer.
-    let start = Instant::now();
-    let mut spent = History::default();
-    let mut coarse = scenario.clone();
-    coarse.discretization.nodes = coarse_n;
-    coarse.discretization.intervals = 1;
-    coarse.discretization.mesh = None;
-    let cnlp = Nlp::new(&coarse, settings);
-    let cw0 = cnlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
-    let coarse_settings = DirectSettings {
-        tolerance: settings.direct.coarse_tolerance,
-        ..settings.direct.clone()
-    };
-    let mut first = solve_nlp(&cnlp, &cw0, None, &coarse_settings, observer);
-    spent.append(History::direct(std::mem::take(&mut first.history)));
-    let max_iterations = settings.direct.max_iterations;
-    let mut budget = settings.clone();
-    budget.direct.max_iterations = max_iterations.saturating_sub(spent.len());
-    let warm = interpolate(&cnlp, &first.w, &nlp);
-    if budget.direct.max_iterations > 0 && first.status == Status::Solved {
-        let mut fine = budget.clone();
-        fine.direct.mu_init = WARM_MU;
-        let (mut sol, duals) = solve_from_start(&fine, &nlp, Start::Primal(&warm, None), observer);
-        spent.append(std::mem::take(&mut sol.history));
-        if sol.status == Status::Solved {
-            return (with_phases(sol, spent, start), nlp, duals);
-        }
-        budget.direct.max_iterations = max_iterations.saturating_sub(spent.len());
-    }
-    if budget.direct.max_iterations == 0 {
-        // The limit was spent on the coarse phase: its last iterate, carried
-        // onto the scenario's mesh, not iterated there.
-        let (mut sol, duals) =
-            solve_from_start(&budget, &nlp, Start::Primal(&warm, None), observer);
-        sol.status = Status::NotConverged;
-        sol.message = format!(
-            "no convergence in {max_iterations} interior-point iterations (coarse start included); the last iterate is returned"
-        );
-        return (with_phases(sol, spent, start), nlp, duals);
-    }
-    let (mut sol, duals) = solve_from_start(&budget, &nlp, Start::Primal(&w0, None), observer);
-    spent.append(std::mem::take(&mut sol.history));
-    (with_phases(sol, spent, start), nlp, duals)
-}
-
-/// A solution with the iterations of every phase, renumbered in order, and
-/// the time since `start`.
-fn with_phases(mut sol: crate::Solution, history: History, start: Instant) -> crate::Solution {
-    sol.iterations = history.len();
-    sol.history = history;
-    sol.solve_time_ms = start.elapsed().as_secs_f64() * 1e3;
-    sol
-}
-
-/// A scaled vector of `from` carried onto `to`'s mesh: states by the state
-/// interpolant (per interval, degree n_k), controls by the control
-/// interpolant, t_f as is.
-pub fn interpolate(from: &Nlp, w: &[f64], to: &Nlp) -> Vec<f64> {
-    let mut out = vec![0.0; to.n_var()];
-    let mut values = vec![0.0; from.n + 1];
-    for s in 0..NL {
-        let count = if s < NS { from.n + 1 } else { from.n };
-        for (k, v) in values.iter_mut().enumerate().take(count) {
-            *v = from.physical(s, w[from.idx(k, s)]);
-        }
-        for (k, &tau) in to.mesh.nodes.iter().enumerate() {
-            let phys = if s < NS {
-                from.mesh.interpolate_states(&values, tau)
-            } else if k < to.n {
-                from.mesh.interpolate_controls(&values[..from.n], tau)
-            } else {
-                continue;
-            };
-            out[to.idx(k, s)] = (phys - to.offset[s]) / to.scale[s];
-        }
-    }
-    out[to.tf_idx()] = from.tf_s(w) / to.tf_scale;
-    out
+    let mut work = ColdWork::new(scenario, settings);
+    let mut sol = crate::Solution::empty(Method::Direct);
+    work.solve_into(scenario, settings, observer, &mut sol);
+    (sol, work.nlp, work.duals)
 }
 
 /// Solve from a given scaled point (and optionally multipliers, for warm
@@ -263,55 +150,12 @@ pub fn solve_from_start(
     (sol, duals)
 }
 
-/// [`solve_from_start`] in `storage` (made for `nlp`), the answer written
-/// into `out` in its own vectors' storage; the storage comes back, its
-/// iterate the last one, for the next solve of the same structure. With
-/// storage and an answer of the right sizes, a solve that converges
-/// allocates nothing (a re-plan in a flight loop, issue 27).
-pub(super) fn solve_into(
-    settings: &SolverSettings,
-    nlp: &Nlp,
-    start_point: Start,
-    observer: &mut dyn Observer,
-    storage: Storage,
-    out: &mut crate::Solution,
-) -> Storage {
-    let start = Instant::now();
-    out.history.scvx.clear();
-    out.history.direct.clear();
-    let driver = Driver::with_storage(nlp, &settings.direct, storage);
-    let (end, mut storage) = driver.run_in(start_point, observer, &mut out.history.direct);
-    let ms = start.elapsed().as_secs_f64() * 1e3;
-    let (w, c) = storage.point_and_defects();
-    let checks = checks_with(nlp, w, c);
-    let (mut status, mut message) = (end.status, end.message);
-    if status == Status::Solved
-        && checks.min_altitude_margin_m < -crate::solution::GROUND_TOLERANCE_M
-    {
-        status = Status::NonPhysical;
-        message = format!(
-            "the trajectory passes {:.3} m below the landing altitude",
-            -checks.min_altitude_margin_m
-        );
-    }
-    let outcome = SolveOutcome {
-        method: Method::Direct,
-        status,
-        message,
-        checks,
-        history: History::default(),
-        solve_time_ms: ms,
-    };
-    nlp.to_trajectory_into(storage.w(), &mut out.trajectory);
-    out.refill(&nlp.mesh, &nlp.model, crate::Formulation::Exact, outcome);
-    storage
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::input::scenario::Scenario;
     use crate::method::direct::kkt::KktMatrix;
+    use crate::method::direct::nlp::NS;
 
     /// ∇_w (f + λᵀc) of the transcription, from its point derivatives.
     fn lagrangian_gradient(nlp: &Nlp, w: &[f64], lambda: &[f64]) -> Vec<f64> {
@@ -459,6 +303,7 @@ mod mesh_tests {
     use crate::input::mesh_layout::MeshLayout;
     use crate::input::scenario::{Case, Scenario};
     use crate::method::observer::Silent;
+    use crate::solution::Status;
 
     /// The paper's case and its (direct) settings on N points over M
     /// uniform intervals.

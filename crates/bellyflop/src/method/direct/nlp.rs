@@ -335,7 +335,15 @@ impl Nlp {
     /// initial to the terminal state (mass to `final_mass_kg`, δ to 0),
     /// T = (T_min + T_max)/2, χ = 0, t_f = `tf_s`. Scaled.
     pub fn straight_line(&self, tf_s: f64, final_mass_kg: f64) -> Vec<f64> {
-        let mut w = vec![0.0; self.n_var()];
+        let mut w = Vec::new();
+        self.straight_line_into(tf_s, final_mass_kg, &mut w);
+        w
+    }
+
+    /// [`Self::straight_line`] into `w`, in its own storage.
+    pub fn straight_line_into(&self, tf_s: f64, final_mass_kg: f64, w: &mut Vec<f64>) {
+        w.clear();
+        w.resize(self.n_var(), 0.0);
         let mut end = [0.0; NS];
         end[..6].copy_from_slice(&self.xf);
         end[slot::M] = final_mass_kg;
@@ -350,7 +358,6 @@ impl Nlp {
             }
         }
         w[self.tf_idx()] = tf_s / self.tf_scale;
-        w
     }
 
     /// Physical t_f \[s\] of a scaled vector.

@@ -7,6 +7,7 @@ use crate::collocation::trajectory::Trajectory;
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::Scenario;
 use crate::input::settings::{Formulation, Method, SolverSettings};
+use crate::method::direct::cold::ColdWork;
 use crate::method::direct::nlp::{Duals, Nlp};
 use crate::method::direct::Storage;
 use crate::method::direct::{self, Start as DirectStart};
@@ -36,6 +37,7 @@ pub const BASIN_TOLERANCE_KG: f64 = 300.0;
 pub struct DirectSolver {
     last: Option<Kept>,
     replan: Option<ReplanWork>,
+    cold: Option<ColdWork>,
 }
 
 /// What a re-plan leaves for the next one of the same discretization: its
@@ -73,14 +75,35 @@ impl DirectSolver {
         });
     }
 
-    /// The kept NLP and multipliers, if they are `prev`'s.
+    /// The kept NLP and multipliers, if they are `prev`'s: the last
+    /// answer's, or the last cold solve's in storage.
     fn duals_of(&self, prev: &Solution) -> Option<(&Nlp, &Duals)> {
-        self.last
+        let same = |mass_kg: f64| mass_kg.to_bits() == prev.final_mass_kg.to_bits();
+        let kept = self
+            .last
             .as_ref()
-            .filter(|k| {
-                k.mesh == prev.mesh && k.final_mass_kg.to_bits() == prev.final_mass_kg.to_bits()
-            })
-            .map(|k| (&k.nlp, &k.duals))
+            .filter(|k| k.mesh == prev.mesh && same(k.final_mass_kg))
+            .map(|k| (&k.nlp, &k.duals));
+        kept.or_else(|| {
+            self.cold
+                .as_ref()
+                .filter(|c| {
+                    c.nlp.mesh.has_layout(&prev.mesh) && c.final_mass_kg().is_some_and(same)
+                })
+                .map(|c| (&c.nlp, &c.duals))
+        })
+    }
+
+    /// The last cold solve's storage, refreshed for `s` when it fits; else
+    /// new storage.
+    fn cold_work(&mut self, s: &Scenario, settings: &SolverSettings) -> ColdWork {
+        match self.cold.take() {
+            Some(mut w) if w.fits(s, settings) => {
+                w.refresh(s, settings);
+                w
+            }
+            _ => ColdWork::new(s, settings),
+        }
     }
 }
 
@@ -117,24 +140,29 @@ impl Solver for DirectSolver {
         }
     }
 
-    /// Build the re-plans' NLP and storage for `scenario`'s mesh now, with
-    /// room for `direct_max_iterations`, so that the first re-plan does
-    /// not allocate either.
-    fn prepare_replans(
+    /// Build the cold solve's and the re-plans' NLPs and storage for
+    /// `scenario`'s mesh now, with room for the cold budget of `settings`
+    /// and for `direct_replan_iterations`, so that neither a cold solve nor
+    /// a re-plan into an answer of the right size allocates later.
+    fn prepare(
         &mut self,
         scenario: &Scenario,
         settings: &SolverSettings,
-        direct_max_iterations: usize,
+        direct_replan_iterations: usize,
     ) {
-        let sv = replan_settings(settings, direct_max_iterations);
+        let mut cold = self.cold_work(scenario, settings);
+        cold.reserve(settings.direct.max_iterations);
+        self.cold = Some(cold);
+        let sv = replan_settings(settings, direct_replan_iterations);
         let mut work = self.replan_work(scenario, &sv);
-        work.reserve(direct_max_iterations);
+        work.reserve(direct_replan_iterations);
         self.replan = Some(work);
     }
 
-    /// A re-plan writes into `out`'s storage, with the last re-plan's NLP
-    /// and solver storage: none of it allocates once the sizes are set
-    /// (issue 27). Other starts are [`Solver::solve`]'s.
+    /// A re-plan and a cold solve write into `out`'s storage, with the last
+    /// such solve's NLPs and solver storage: none of it allocates once the
+    /// sizes are set (issue 27). A pass on a new mesh is
+    /// [`Solver::solve`]'s.
     fn solve_into(
         &mut self,
         scenario: &Scenario,
@@ -147,6 +175,13 @@ impl Solver for DirectSolver {
             Start::Replan(replan) => {
                 self.last = None;
                 self.replan_into(scenario, settings, &replan, observer, out);
+            }
+            Start::StraightLine => {
+                let mut work = self.cold_work(scenario, settings);
+                work.solve_into(scenario, settings, observer, out);
+                // The multipliers of this answer are the cold storage's.
+                self.last = None;
+                self.cold = Some(work);
             }
             other => *out = self.solve(scenario, settings, other, observer),
         }
@@ -398,6 +433,43 @@ mod tests {
                 assert_eq!(bits(x), bits(y), "re-plan {k}");
             }
             assert_eq!(a.tf_s.to_bits(), b.tf_s.to_bits(), "re-plan {k}");
+        }
+    }
+
+    /// Cold solves into one solver's kept storage (and one answer's) give
+    /// the answers of [`direct::solve`], which builds everything afresh,
+    /// bit for bit: from several initial states, after a mesh change, and
+    /// with the coarse phase off.
+    #[test]
+    fn reused_cold_storage_gives_the_fresh_answer_bit_for_bit() {
+        use crate::method::observer::Silent;
+        let mut reused = DirectSolver::default();
+        let mut out = Solution::empty(Method::Direct);
+        for (k, nodes, coarse) in [(0, 20, 8), (1, 20, 8), (2, 16, 8), (3, 16, 0), (4, 20, 8)] {
+            let mut s = Scenario::paper();
+            s.initial.x_m += 15.0 * k as f64;
+            s.initial.vz_mps += 2.0 * k as f64;
+            s.discretization.nodes = nodes;
+            let mut settings = SolverSettings::default();
+            settings.direct.coarse_nodes = coarse;
+            reused.solve_into(&s, &settings, Start::StraightLine, &mut Silent, &mut out);
+            let fresh = direct::solve(&s, &settings, &mut Silent);
+            assert_eq!(out.status, fresh.status, "solve {k}");
+            assert_eq!(out.iterations, fresh.iterations, "solve {k}");
+            assert_eq!(
+                out.history.direct.len(),
+                fresh.history.direct.len(),
+                "solve {k}"
+            );
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            for (x, y) in [
+                (&out.mass_kg, &fresh.mass_kg),
+                (&out.z_m, &fresh.z_m),
+                (&out.thrust_n, &fresh.thrust_n),
+            ] {
+                assert_eq!(bits(x), bits(y), "solve {k}");
+            }
+            assert_eq!(out.tf_s.to_bits(), fresh.tf_s.to_bits(), "solve {k}");
         }
     }
 

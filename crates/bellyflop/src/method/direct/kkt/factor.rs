@@ -229,6 +229,29 @@ impl KktSolver {
         (s_nunu, a)
     }
 
+    /// The first product of [`Self::assemble_dense`]'s shape, on a scratch
+    /// copy, discarded. gemm (faer's matrix product) allocates a packing
+    /// slab per thread at its first product; a flight loop's setup does one
+    /// on its thread, so that the solves that follow there allocate nothing
+    /// (issue 27).
+    pub fn warm_up_thread(&self) {
+        let n = self.n;
+        let rd = self.dim() + 1;
+        let (nn, pdim) = (n + 1, NR * n);
+        let mut r = vec![0.0; rd * rd];
+        let mut r = MatMut::from_column_major_slice_mut(&mut r, rd, rd);
+        let pm = MatRef::from_column_major_slice(&self.p, pdim, NR * nn);
+        let d = MatRef::from_column_major_slice(&self.d, n, nn);
+        matmul(
+            r.rb_mut().submatrix_mut(0, 0, pdim, n),
+            Accum::Replace,
+            pm.subcols(0, nn),
+            d.transpose(),
+            -1.0,
+            Par::Seq,
+        );
+    }
+
     /// R's lower triangle in `reduced.a` from the node terms, and g's t̂_f
     /// column.
     fn assemble_dense(&mut self, kkt: &KktMatrix, s_nunu: f64, a: f64) {
