@@ -345,6 +345,12 @@ enum bf_error bf_problem_node_count(const struct bf_problem *problem, size_t *ou
  A solver for `problem` (copied: the problem may be freed after) with
  `settings` (from `bf_settings_default`, changed), into `*out`; free it
  with `bf_solver_free`.
+
+ This is the setup: it allocates every workspace that `bf_solve` and
+ `bf_replan` use, and does the first matrix product of the thread it
+ runs on (faer's product allocates a packing buffer per thread at its
+ first). Call it on the thread that will use the solver; on another,
+ the first solve there makes that one allocation.
  */
 enum bf_error bf_solver_new(const struct bf_problem *problem,
                             const struct bf_settings *settings,

@@ -276,6 +276,12 @@ pub extern "C" fn bf_problem_node_count(problem: *const bf_problem, out: *mut us
 /// A solver for `problem` (copied: the problem may be freed after) with
 /// `settings` (from `bf_settings_default`, changed), into `*out`; free it
 /// with `bf_solver_free`.
+///
+/// This is the setup: it allocates every workspace that `bf_solve` and
+/// `bf_replan` use, and does the first matrix product of the thread it
+/// runs on (faer's product allocates a packing buffer per thread at its
+/// first). Call it on the thread that will use the solver; on another,
+/// the first solve there makes that one allocation.
 #[no_mangle]
 pub extern "C" fn bf_solver_new(
     problem: *const bf_problem,
