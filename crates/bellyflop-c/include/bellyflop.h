@@ -60,12 +60,18 @@ typedef enum bf_error {
 
 /*
  How a solve ended (the library's `Status`). A status is a claim: only
- `BF_STATUS_SOLVED` is a converged trajectory that meets the dynamics and
- the physical checks.
+ `BF_STATUS_SOLVED` is a converged trajectory that meets the dynamics at
+ its collocation nodes and the physical checks. A flight loop's calls do
+ not re-integrate the controls between the nodes (that costs more than a
+ re-plan): on the paper's case at N = 20 they miss the pad by 0.8 m when
+ flown open loop, which the next re-plans correct in closed loop
+ (`bellyflop sim`); `bellyflop solve` re-integrates, polishes and calls
+ an answer that misses `inaccurate`.
  */
 typedef enum bf_status {
   /*
-   Converged, dynamics met, and the physical checks pass.
+   Converged, the dynamics met at the nodes, and the physical checks
+   pass (the flown landing error is not checked: see above).
    */
   BF_STATUS_SOLVED = 0,
   /*
@@ -89,7 +95,8 @@ typedef enum bf_status {
   BF_STATUS_SOLVER_FAILED = 4,
   /*
    Converged, but its controls, re-integrated, miss the target by more
-   than the landing tolerances.
+   than the landing tolerances (the library's pipeline; `bf_solve` and
+   `bf_replan` do not re-integrate, so they do not return it).
    */
   BF_STATUS_INACCURATE = 5,
 } bf_status;

@@ -35,12 +35,18 @@ pub enum bf_error {
 }
 
 /// How a solve ended (the library's `Status`). A status is a claim: only
-/// `BF_STATUS_SOLVED` is a converged trajectory that meets the dynamics and
-/// the physical checks.
+/// `BF_STATUS_SOLVED` is a converged trajectory that meets the dynamics at
+/// its collocation nodes and the physical checks. A flight loop's calls do
+/// not re-integrate the controls between the nodes (that costs more than a
+/// re-plan): on the paper's case at N = 20 they miss the pad by 0.8 m when
+/// flown open loop, which the next re-plans correct in closed loop
+/// (`bellyflop sim`); `bellyflop solve` re-integrates, polishes and calls
+/// an answer that misses `inaccurate`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum bf_status {
-    /// Converged, dynamics met, and the physical checks pass.
+    /// Converged, the dynamics met at the nodes, and the physical checks
+    /// pass (the flown landing error is not checked: see above).
     Solved = 0,
     /// Converged, but the relaxation is not tight or the thrust points
     /// backwards.
@@ -54,7 +60,8 @@ pub enum bf_status {
     /// The inner solver failed.
     SolverFailed = 4,
     /// Converged, but its controls, re-integrated, miss the target by more
-    /// than the landing tolerances.
+    /// than the landing tolerances (the library's pipeline; `bf_solve` and
+    /// `bf_replan` do not re-integrate, so they do not return it).
     Inaccurate = 5,
 }
 
