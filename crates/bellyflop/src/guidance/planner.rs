@@ -128,9 +128,10 @@ impl Planner {
     }
 
     /// [`Self::replan`] into `out`, in its own storage and the plan's: with
-    /// the direct method, once `out` and the plan have their sizes (after a
-    /// first re-plan of the same mesh), a re-plan that converges allocates
-    /// nothing (issue 27). On an error `out` is left as it was.
+    /// the direct method, once `out` and the plan have their sizes (after
+    /// [`Self::prepare`], or a first re-plan of the same mesh), a re-plan
+    /// that converges allocates nothing (issue 27). On an error `out` is
+    /// left as it was.
     pub fn replan_into(
         &mut self,
         state: &InitialState,

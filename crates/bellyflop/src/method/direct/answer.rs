@@ -42,7 +42,7 @@ fn checks_with(nlp: &Nlp, w: &[f64], c: &mut [f64]) -> crate::solution::Checks {
     }
 }
 
-/// [`solve_from_start`] in `storage` (made for `nlp`), the answer written
+/// [`super::solve_from_start`] in `storage` (made for `nlp`), the answer written
 /// into `out` in its own vectors' storage; the storage comes back, its
 /// iterate the last one, for the next solve of the same structure. With
 /// storage and an answer of the right sizes, a solve that converges

@@ -30,7 +30,7 @@ pub(super) struct XElimination {
     pub(super) at: Vec<bool>,
     /// The eliminated nodes, in order.
     pub(super) nodes: Vec<usize>,
-    /// A⁺ = (AᵀA)⁻¹Aᵀ, (N − 1) × N, row-major (row e: node nodes[e]).
+    /// A⁺ = (AᵀA)⁻¹Aᵀ, (N − 1) × N, row-major (row e: node `nodes[e]`).
     pub(super) pinv: Vec<f64>,
     /// ŵ, N.
     pub(super) null: Vec<f64>,

@@ -325,7 +325,7 @@ pub struct KktSolver {
     d: Vec<f64>,
     /// D again, row-major (row i is D_i·), for contiguous row access.
     d_rows: Vec<f64>,
-    /// R_i[c2][c] by (c2, c), contiguous in i.
+    /// `R_i[c2][c]` by (c2, c), contiguous in i.
     rt: Vec<f64>,
     /// P = (I ⊗ D)·blockdiag(Q) over the kept states: 7N × 7(N+1), column-major.
     p: Vec<f64>,
