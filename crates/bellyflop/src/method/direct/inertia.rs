@@ -20,10 +20,10 @@ const DELTA_C: f64 = 1e-8;
 pub(super) struct InertiaCorrection {
     /// δ_w of the last factorization (0: none needed).
     pub(super) delta_w: f64,
-    /// The last nonzero δ_w (δ_w^last).
+    /// The last nonzero δ_w (δ_w^last). (δ_c is not kept: each
+    /// factorization starts from δ_c = 0, and the KKT matrix carries the
+    /// one it used.)
     delta_w_last: f64,
-    /// δ_c of the last factorization.
-    delta_c: f64,
 }
 
 impl InertiaCorrection {
@@ -82,7 +82,6 @@ impl InertiaCorrection {
             }
         }
         self.delta_w = delta_w;
-        self.delta_c = delta_c;
         Ok(())
     }
 }
