@@ -145,12 +145,15 @@ def main():
             text = (ROOT / "scenarios" / "paper.toml").read_text() if state is None else scenario_text(state, 20)
             path.write_text(text)
             sc = tomllib.loads(text)
-            if name not in cache:
+            # Keyed by the state itself: box and wide states share one seeded
+            # stream, so a name means another state at other --box counts.
+            key = name if state is None else f"{name}:" + ",".join(f"{v:.12g}" for v in state)
+            if key not in cache:
                 f = run_ipopt(path, 1, nodes=160, intervals=20)
-                cache[name] = {"success": f["success"], "final_mass_kg": f["final_mass_kg"]}
+                cache[key] = {"success": f["success"], "final_mass_kg": f["final_mass_kg"]}
                 if args.fine:
                     Path(args.fine).write_text(json.dumps(cache))
-            fine = cache[name]
+            fine = cache[key]
             if args.fine_only:
                 continue
             ours = run_ours(path, args.repeat)
