@@ -115,7 +115,7 @@ pub fn run(args: &MonteCarloArgs) -> ExitCode {
         }
     };
     let wall_s = start.elapsed().as_secs_f64();
-    let s = summary(
+    let mut s = summary(
         &rows,
         &config.touchdown,
         args.seed,
@@ -123,6 +123,7 @@ pub fn run(args: &MonteCarloArgs) -> ExitCode {
         wall_s,
         args.open_loop,
     );
+    load::add_warnings(&mut s, &scenario.warnings);
     if args.json {
         println!("{s}");
     } else {

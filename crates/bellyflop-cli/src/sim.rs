@@ -71,7 +71,8 @@ pub fn run(args: &SimArgs) -> ExitCode {
         }
     };
     let outcome = config.outcome(&flight);
-    let v = flight_json(&flight, outcome, args.seed, args.run, &config);
+    let mut v = flight_json(&flight, outcome, args.seed, args.run, &config);
+    load::add_warnings(&mut v, &scenario.warnings);
     if args.json {
         println!("{v}");
     } else {

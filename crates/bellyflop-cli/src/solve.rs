@@ -37,10 +37,7 @@ pub fn run(args: SolveArgs) -> ExitCode {
     }
     landing::add_to_json(&mut v, &propagation);
     bellyflop::output::report::add_mesh_json(&mut v, &scenario, &solution);
-    // Only when there are any: the JSON of a file without warnings is unchanged.
-    if !warnings.is_empty() {
-        v["warnings"] = warnings.into();
-    }
+    load::add_warnings(&mut v, &warnings);
     if args.json {
         println!("{v}");
     } else {

@@ -122,3 +122,44 @@ fn a_too_long_tf_guess_is_clamped_with_a_warning() {
         "{v}"
     );
 }
+
+/// `sim` and `montecarlo` carry a clamped guess's warning in their JSON too
+/// (and on stderr), and no `warnings` key without one.
+#[test]
+fn sim_and_montecarlo_json_carry_the_scenario_warnings() {
+    let clamped = write_scenario("closed-loop-105t.toml", paper_at(105_000.0, true));
+    let plain = write_scenario("closed-loop-120t.toml", paper_at(120_000.0, true));
+    for (path, warned) in [(&clamped, true), (&plain, false)] {
+        let p = path.to_str().unwrap();
+        for args in [
+            vec!["sim", "--scenario", p, "--json", "--no-dispersions"],
+            vec![
+                "montecarlo",
+                "--scenario",
+                p,
+                "--json",
+                "--runs",
+                "2",
+                "--threads",
+                "1",
+                "--quiet",
+            ],
+        ] {
+            let (_, stdout, stderr) = bellyflop(&args);
+            let what = format!("{args:?}: {stderr}");
+            let v: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+            assert_eq!(
+                stderr.contains("warning: discretization.final_mass_guess_kg"),
+                warned,
+                "{what}"
+            );
+            match v.get("warnings") {
+                Some(w) => {
+                    assert!(warned, "{what}");
+                    assert!(w[0].as_str().unwrap().contains("clamped to 105000"), "{w}");
+                }
+                None => assert!(!warned, "{what}"),
+            }
+        }
+    }
+}
