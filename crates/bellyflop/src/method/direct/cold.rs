@@ -45,6 +45,8 @@ pub struct ColdWork {
     /// final mass (which identifies it; none before a solve).
     pub(super) duals: Duals,
     final_mass_kg: Option<f64>,
+    /// Whether a phase on the scenario's mesh has run in this solve.
+    fine_used: bool,
 }
 
 /// The coarse phase's NLP, solver storage and straight line.
@@ -101,6 +103,7 @@ impl ColdWork {
             values: Vec::new(),
             duals: Duals::default(),
             final_mass_kg: None,
+            fine_used: false,
         }
     }
 
@@ -170,6 +173,7 @@ impl ColdWork {
             .straight_line_into(d.tf_guess_s, d.final_mass_guess_kg, &mut self.w0);
         out.history.scvx.clear();
         out.history.direct.clear();
+        self.fine_used = false;
         if self.coarse.is_none() {
             let storage = take(&mut self.storage, &self.nlp);
             let start = Start::Primal(&self.w0, None);
@@ -256,7 +260,13 @@ impl ColdWork {
         observer: &mut dyn Observer,
         out: &mut Solution,
     ) {
-        let storage = take(&mut self.storage, &self.nlp);
+        let mut storage = take(&mut self.storage, &self.nlp);
+        if self.fine_used {
+            // A second phase on this mesh starts from new storage, as a
+            // solve of its own would.
+            storage = storage.reuse_for(&self.nlp);
+        }
+        self.fine_used = true;
         let w0 = match from {
             FineStart::Coarse => &self.warm,
             FineStart::StraightLine => &self.w0,
