@@ -432,12 +432,7 @@ impl Solution {
     /// This answer as a plan to fly: its trajectory, mesh and formulation,
     /// and σ = T/m and δ through its nodes.
     pub fn plan(&self) -> Plan {
-        let sigma: Vec<f64> = self
-            .thrust_n
-            .iter()
-            .zip(&self.mass_kg)
-            .map(|(t, m)| t / m)
-            .collect();
+        let sigma: Vec<f64> = self.node_sigma().collect();
         Plan::new(
             self.trajectory.clone(),
             self.mesh(),
@@ -455,9 +450,14 @@ impl Solution {
             &self.mesh,
             self.formulation,
             &self.t_s,
-            self.thrust_n.iter().zip(&self.mass_kg).map(|(t, m)| t / m),
+            self.node_sigma(),
             &self.delta_rad,
         );
+    }
+
+    /// Thrust per mass σ = T/m \[N/kg\] at the nodes, which a plan flies.
+    fn node_sigma(&self) -> impl Iterator<Item = f64> + '_ {
+        self.thrust_n.iter().zip(&self.mass_kg).map(|(t, m)| t / m)
     }
 
     /// A name for the formulation that produced this answer, given the one

@@ -12,7 +12,7 @@
 use std::time::Instant;
 
 use crate::input::mesh_layout::MeshLayout;
-use crate::input::scenario::Scenario;
+use crate::input::scenario::{Discretization, Scenario};
 use crate::input::settings::{DirectSettings, SolverSettings};
 use crate::method::direct::answer::{solve_appending, solve_into};
 use crate::method::direct::driver::{Driver, Start, Storage};
@@ -24,12 +24,36 @@ use crate::solution::{Solution, Status};
 /// μ_0 of the fine solve after a coarse start, and of warm starts.
 pub const WARM_MU: f64 = 1e-4;
 
-/// The storage of a cold solve on one discretization.
+/// What fixes a discretization's mesh (its nodes, intervals and explicit
+/// layout), kept with storage built for it: storage fits a later scenario
+/// whose discretization has the same.
 #[derive(Debug)]
-pub struct ColdWork {
+pub(super) struct MeshKey {
     nodes: usize,
     intervals: usize,
     layout: Option<MeshLayout>,
+}
+
+impl MeshKey {
+    /// The key of `d`'s mesh.
+    pub(super) fn of(d: &Discretization) -> MeshKey {
+        MeshKey {
+            nodes: d.nodes,
+            intervals: d.intervals,
+            layout: d.mesh.clone(),
+        }
+    }
+
+    /// Whether `d` asks for this mesh (compared without allocating).
+    pub(super) fn matches(&self, d: &Discretization) -> bool {
+        self.nodes == d.nodes && self.intervals == d.intervals && self.layout == d.mesh
+    }
+}
+
+/// The storage of a cold solve on one discretization.
+#[derive(Debug)]
+pub struct ColdWork {
+    mesh: MeshKey,
     coarse_nodes: usize,
     /// The scenario's mesh: its NLP, solver storage and straight line.
     pub(super) nlp: Nlp,
@@ -91,9 +115,7 @@ impl ColdWork {
         });
         let nlp = Nlp::new(scenario, settings);
         ColdWork {
-            nodes: d.nodes,
-            intervals: d.intervals,
-            layout: d.mesh.clone(),
+            mesh: MeshKey::of(d),
             coarse_nodes,
             storage: Some(Storage::new(&nlp)),
             nlp,
@@ -110,10 +132,7 @@ impl ColdWork {
     /// Whether this storage is for `scenario`'s discretization and
     /// `settings`' coarse phase.
     pub fn fits(&self, scenario: &Scenario, settings: &SolverSettings) -> bool {
-        let d = &scenario.discretization;
-        self.nodes == d.nodes
-            && self.intervals == d.intervals
-            && self.layout == d.mesh
+        self.mesh.matches(&scenario.discretization)
             && self.coarse_nodes == settings.direct.coarse_nodes
     }
 

@@ -97,7 +97,7 @@ impl Storage {
     /// This storage, reset to [`Storage::new`]'s state, for `nlp` when its
     /// structure fits (the same mesh and fixed variables); else new storage.
     pub fn reuse_for(mut self, nlp: &Nlp) -> Storage {
-        if !self.ws.solver.fits(nlp) || self.ws.c.len() != nlp.n_con() {
+        if !self.ws.solver.fits(nlp) {
             return Storage::new(nlp);
         }
         self.ws.reset();

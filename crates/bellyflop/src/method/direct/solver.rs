@@ -7,7 +7,7 @@ use crate::collocation::trajectory::Trajectory;
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::Scenario;
 use crate::input::settings::{Formulation, Method, SolverSettings};
-use crate::method::direct::cold::ColdWork;
+use crate::method::direct::cold::{ColdWork, MeshKey};
 use crate::method::direct::nlp::{Duals, Nlp};
 use crate::method::direct::Storage;
 use crate::method::direct::{self, Start as DirectStart};
@@ -46,9 +46,7 @@ pub struct DirectSolver {
 /// builds neither (issue 27: no allocation in a flight loop's re-plan).
 #[derive(Debug)]
 struct ReplanWork {
-    nodes: usize,
-    intervals: usize,
-    layout: Option<MeshLayout>,
+    mesh: MeshKey,
     nlp: Nlp,
     storage: Storage,
     /// The shifted plan on the mesh, and as the NLP's start point.
@@ -233,9 +231,7 @@ impl DirectSolver {
     fn replan_work(&mut self, s: &Scenario, sv: &SolverSettings) -> ReplanWork {
         let d = &s.discretization;
         match self.replan.take() {
-            Some(mut w)
-                if w.nodes == d.nodes && w.intervals == d.intervals && w.layout == d.mesh =>
-            {
+            Some(mut w) if w.mesh.matches(d) => {
                 w.nlp.refresh(s, sv);
                 w.storage = w.storage.reuse_for(&w.nlp);
                 w
@@ -243,9 +239,7 @@ impl DirectSolver {
             _ => {
                 let nlp = Nlp::new(s, sv);
                 ReplanWork {
-                    nodes: d.nodes,
-                    intervals: d.intervals,
-                    layout: d.mesh.clone(),
+                    mesh: MeshKey::of(d),
                     storage: Storage::new(&nlp),
                     nlp,
                     guess: Trajectory {
@@ -390,6 +384,20 @@ mod tests {
     use super::*;
     use crate::problem::dynamics::NU_MAX;
 
+    /// A node array of an answer.
+    type Column = fn(&Solution) -> &Vec<f64>;
+
+    /// The same status, iteration count, t_f and `columns`, bit for bit.
+    fn assert_same_answer(a: &Solution, b: &Solution, columns: [Column; 3], what: &str) {
+        assert_eq!(a.status, b.status, "{what}");
+        assert_eq!(a.iterations, b.iterations, "{what}");
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for column in columns {
+            assert_eq!(bits(column(a)), bits(column(b)), "{what}");
+        }
+        assert_eq!(a.tf_s.to_bits(), b.tf_s.to_bits(), "{what}");
+    }
+
     /// A re-plan that reuses the last one's NLP and Newton storage gives
     /// the answer of one that builds them afresh, bit for bit, along a
     /// sequence of re-plans from perturbed states (and after a mesh change,
@@ -422,17 +430,8 @@ mod tests {
             let a = reused.solve(&s, &settings, Start::Replan(replan), &mut Silent);
             let b =
                 DirectSolver::default().solve(&s, &settings, Start::Replan(replan), &mut Silent);
-            assert_eq!(a.status, b.status, "re-plan {k}");
-            assert_eq!(a.iterations, b.iterations, "re-plan {k}");
-            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            for (x, y) in [
-                (&a.mass_kg, &b.mass_kg),
-                (&a.x_m, &b.x_m),
-                (&a.thrust_n, &b.thrust_n),
-            ] {
-                assert_eq!(bits(x), bits(y), "re-plan {k}");
-            }
-            assert_eq!(a.tf_s.to_bits(), b.tf_s.to_bits(), "re-plan {k}");
+            let columns: [Column; 3] = [|s| &s.mass_kg, |s| &s.x_m, |s| &s.thrust_n];
+            assert_same_answer(&a, &b, columns, &format!("re-plan {k}"));
         }
     }
 
@@ -454,22 +453,13 @@ mod tests {
             settings.direct.coarse_nodes = coarse;
             reused.solve_into(&s, &settings, Start::StraightLine, &mut Silent, &mut out);
             let fresh = direct::solve(&s, &settings, &mut Silent);
-            assert_eq!(out.status, fresh.status, "solve {k}");
-            assert_eq!(out.iterations, fresh.iterations, "solve {k}");
             assert_eq!(
                 out.history.direct.len(),
                 fresh.history.direct.len(),
                 "solve {k}"
             );
-            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            for (x, y) in [
-                (&out.mass_kg, &fresh.mass_kg),
-                (&out.z_m, &fresh.z_m),
-                (&out.thrust_n, &fresh.thrust_n),
-            ] {
-                assert_eq!(bits(x), bits(y), "solve {k}");
-            }
-            assert_eq!(out.tf_s.to_bits(), fresh.tf_s.to_bits(), "solve {k}");
+            let columns: [Column; 3] = [|s| &s.mass_kg, |s| &s.z_m, |s| &s.thrust_n];
+            assert_same_answer(&out, &fresh, columns, &format!("solve {k}"));
         }
     }
 
