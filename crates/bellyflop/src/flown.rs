@@ -54,6 +54,40 @@ impl Signal {
         }
     }
 
+    /// (min, max) of the signal over its piece, s ∈ [0, 1], exactly: the
+    /// ends and the interior extrema ([`critical_points`]).
+    pub fn range(&self) -> (f64, f64) {
+        let ss: Vec<f64> = match self {
+            Signal::Bound { .. } => vec![0.0],
+            Signal::Polynomial { coefficients, .. } if coefficients.len() == DEGREE + 1 => {
+                let (e, _) = critical_points(coefficients);
+                [0.0, 1.0, e[0], e[1]]
+                    .into_iter()
+                    .filter(|s| s.is_finite())
+                    .collect()
+            }
+            Signal::Polynomial { .. } => vec![f64::NAN],
+        };
+        fold_range(ss.into_iter().map(|s| self.value(s)))
+    }
+
+    /// (min, max) of d(signal)/ds over s ∈ [0, 1], exactly (a quadratic:
+    /// its ends and its vertex).
+    pub fn slope_range(&self) -> (f64, f64) {
+        let ss: Vec<f64> = match self {
+            Signal::Bound { .. } => vec![0.0],
+            Signal::Polynomial { coefficients, .. } if coefficients.len() == DEGREE + 1 => {
+                let (_, v) = critical_points(coefficients);
+                [0.0, 1.0, v]
+                    .into_iter()
+                    .filter(|s| s.is_finite())
+                    .collect()
+            }
+            Signal::Polynomial { .. } => vec![f64::NAN],
+        };
+        fold_range(ss.into_iter().map(|s| self.slope(s)))
+    }
+
     /// d(signal)/ds at `s` (0 on a bound).
     pub fn slope(&self, s: f64) -> f64 {
         match self {
@@ -64,6 +98,47 @@ impl Signal {
             }
         }
     }
+}
+
+/// The interior points s ∈ (0, 1) where a cubic Σ c_k·P̃_k(s) has a zero
+/// slope (its interior extrema: NaN where there is none), and the one where
+/// its slope does (the extremum of the quadratic slope). A cubic and its
+/// slope are bounded on [0, 1] by their values at the ends and there.
+pub fn critical_points(c: &[f64]) -> ([f64; 2], f64) {
+    // The slope in x = 2s − 1 ([`legendre_slope`]): a·x² + b·x + k.
+    let (a, b, k) = (15.0 * c[3], 6.0 * c[2], 2.0 * c[1] - 3.0 * c[3]);
+    let mut x = [f64::NAN; 2];
+    if a != 0.0 {
+        let disc = b * b - 4.0 * a * k;
+        if disc >= 0.0 {
+            // The numerically stable pair of roots.
+            let q = -0.5 * (b + b.signum() * disc.sqrt());
+            x = [q / a, if q != 0.0 { k / q } else { f64::NAN }];
+        }
+    } else if b != 0.0 {
+        x[0] = -k / b;
+    }
+    let slope_x = if a != 0.0 { -b / (2.0 * a) } else { f64::NAN };
+    let s = |x: f64| {
+        let s = 0.5 * (x + 1.0);
+        if s > 0.0 && s < 1.0 {
+            s
+        } else {
+            f64::NAN
+        }
+    };
+    ([s(x[0]), s(x[1])], s(slope_x))
+}
+
+/// (min, max) of the values, NaN if any is.
+fn fold_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+        if v.is_nan() || lo.is_nan() {
+            (f64::NAN, f64::NAN)
+        } else {
+            (lo.min(v), hi.max(v))
+        }
+    })
 }
 
 /// P̃_0..P̃_3 at s.

@@ -11,7 +11,7 @@ use crate::polish;
 use crate::problem::feasibility;
 use crate::refine;
 use crate::solution::{Solution, Status};
-use crate::verify::accuracy;
+use crate::verify::{accuracy, path};
 
 /// Solve a scenario with the method its settings name
 /// (`solver.method`: SCvx or the direct interior-point method), with
@@ -25,7 +25,11 @@ use crate::verify::accuracy;
 /// 3. a `solved` answer is polished into controls that fly
 ///    ([`polish`], unless `solver.polish = false`), and then if its
 ///    controls (the flown ones when polished), re-integrated, land beyond
-///    the scenario's tolerances it is `inaccurate` ([`accuracy::check`]).
+///    the scenario's tolerances ([`accuracy::check`]), or break a path
+///    constraint along the flight in continuous time ([`path::check`]:
+///    the ground, the thrust, gimbal and gimbal-rate bounds, the dry mass),
+///    it is `inaccurate`. A polished answer that fails either gives way to
+///    the raw answer, `inaccurate`, with the reason.
 ///
 /// With `solver.refinement.tolerance` > 0 the mesh is refined until every
 /// interval's relative error is within it ([`refine::solve`]), and step 3
@@ -69,13 +73,50 @@ pub fn solve(
             not_proven(scenario, sol)
         }
     };
-    if sol.status == Status::Solved && settings.polish {
+    let raw = (sol.status == Status::Solved && settings.polish).then(|| {
+        let raw = sol.clone();
         polish_answer(scenario, &mut sol);
+        raw
+    });
+    check(scenario, settings, &mut sol);
+    match raw {
+        Some(raw) if sol.controls_flown.is_some() && sol.status != Status::Solved => {
+            fall_back(scenario, settings, raw, sol)
+        }
+        _ => sol,
     }
+}
+
+/// Step 3's second half: the landing and the path along the flight.
+fn check(scenario: &Scenario, settings: &SolverSettings, sol: &mut Solution) {
     if sol.status == Status::Solved {
-        accuracy::check(scenario, settings, &mut sol);
+        accuracy::check(scenario, settings, sol);
     }
-    sol
+    path::check(scenario, sol);
+}
+
+/// A polished answer that fails its checks gives way to the raw answer,
+/// judged by the same checks (`inaccurate` unless it passes them all),
+/// with the polished answer's failure in its message and the polish's
+/// time in its solve time.
+fn fall_back(
+    scenario: &Scenario,
+    settings: &SolverSettings,
+    mut raw: Solution,
+    polished: Solution,
+) -> Solution {
+    raw.solve_time_ms = polished.solve_time_ms;
+    check(scenario, settings, &mut raw);
+    let own = if raw.status == Status::Solved {
+        String::new()
+    } else {
+        format!("; the raw answer itself: {}", raw.message)
+    };
+    raw.message = format!(
+        "the polished answer failed its checks, so this is the raw collocation answer (solver.polish could not make it fly within every constraint): {}{own}",
+        polished.message
+    );
+    raw
 }
 
 /// Step 3's first half: the polish of a solved answer ([`polish`]); its

@@ -212,6 +212,27 @@ impl Checks {
     }
 }
 
+/// What the flight of an answer reaches: the path constraints along it,
+/// in continuous time ([`crate::verify::path`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PathReport {
+    /// min over [0, t_f] of z(t) − z_f \[m\] (≈ 0 at the touchdown).
+    pub min_clearance_m: f64,
+    /// min over [0, t_f − 1 s] of z(t) − z_f \[m\]: how close the flight
+    /// comes to the ground before its last second.
+    pub min_clearance_before_last_second_m: f64,
+    /// When z(t) − z_f is lowest below the floor, if it is \[s\].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ground_contact_t_s: Option<f64>,
+    pub thrust_min_n: f64,
+    pub thrust_max_n: f64,
+    /// max |δ| \[rad\].
+    pub gimbal_max_rad: f64,
+    /// max |χ| [rad/s].
+    pub gimbal_rate_max_radps: f64,
+    pub final_mass_kg: f64,
+}
+
 /// A solved (or best-effort) landing trajectory in physical units.
 ///
 /// Node arrays have N+1 entries at the LGR points (time t = (τ+1)·t_f/2).
@@ -266,6 +287,10 @@ pub struct Solution {
     /// node arrays sample their trajectory.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub controls_flown: Option<FlownControls>,
+    /// The path constraints along the flight, in continuous time, of a
+    /// `solved` or `inaccurate` answer ([`crate::verify::path`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub path: Option<PathReport>,
     /// The LCvx trajectory itself, for warm starts and re-propagation.
     #[serde(skip)]
     pub trajectory: Trajectory,
@@ -375,6 +400,7 @@ impl Solution {
             history: History::default(),
             refinement: None,
             controls_flown: None,
+            path: None,
             trajectory: Trajectory {
                 x: Vec::new(),
                 u: Vec::new(),
@@ -427,6 +453,7 @@ impl Solution {
         self.method = outcome.method;
         self.refinement = None;
         self.controls_flown = None;
+        self.path = None;
     }
 
     /// This answer as a plan to fly: its trajectory, mesh and formulation,

@@ -9,8 +9,10 @@
 //! collocation answer ([`arcs`], [`start`]). It then solves
 //!
 //!   max m(t_f)  s.t.  y(t_f) = y_f on (x, z, Vx, Vz, θ, w)  (Eq. 4),
-//!   T_min ≤ T ≤ T_max, |δ| ≤ δ_max, |δ̇| ≤ χ_max (at a grid), δ(0) = δ_0,
-//!   δ continuous,
+//!   T_min ≤ T ≤ T_max, |δ| ≤ δ_max, |δ̇| ≤ χ_max (at a grid and at each
+//!   polynomial's interior extrema, so along the whole flight),
+//!   δ(0) = δ_0, δ continuous,
+//!   z(t) ≥ z_f along the shot and m(t_f) ≥ m_dry ([`ground`]),
 //!
 //! with y(t_f) from an accurate fixed-step integration ([`shooting`]) and
 //! its exact sensitivities, by successive convexification: each step a
@@ -20,6 +22,7 @@
 //! integration resolves every segment to [`shooting::STEP_S`].
 
 pub mod arcs;
+pub mod ground;
 pub mod publish;
 pub mod shooting;
 pub mod start;
@@ -44,6 +47,14 @@ pub const RESIDUAL_TOLERANCE: f64 = 1e-3;
 
 /// ... and the QP's step would gain less than this in final mass \[kg\].
 pub const MASS_TOLERANCE_KG: f64 = 0.05;
+
+/// The largest path violation of a polished shot, ground \[m\] or dry mass
+/// \[kg\]: a tenth of what the check allows
+/// ([`crate::solution::GROUND_TOLERANCE_M`]). Where the optimum touches the
+/// ground, the rows' linearization leaves the shot a few µm below it
+/// (up to 1.1e-5 m on 2 of 300 seeded states, `bench/safety.py`), which
+/// the iteration does not remove.
+pub const PATH_TOLERANCE: f64 = 0.1 * crate::solution::GROUND_TOLERANCE_M;
 
 /// The landing corrections at the end stop below this Σ|r̂| (0.1 µm).
 pub const CORRECTED_RESIDUAL: f64 = 1e-7;
@@ -90,6 +101,8 @@ pub enum PolishError {
     },
     #[error("the shot left the finite numbers (the controls drove the state to infinity)")]
     NonFinite,
+    #[error("the polish stopped after {iterations} iterations with its path {violation:.3e} m below the ground (or kg below the dry mass)")]
+    Path { iterations: usize, violation: f64 },
 }
 
 /// A polished answer.
@@ -112,12 +125,59 @@ struct Problem {
     y0: [f64; 7],
     delta0: f64,
     target: [f64; 6],
+    dry_mass_kg: f64,
+}
+
+/// A shot's end, its path violation ([`ground::violation`]) and the steps
+/// where it goes through the ground ([`ground::below`]).
+#[derive(Debug, Clone)]
+struct Shot {
+    y: [f64; 7],
+    path: f64,
+    below: Vec<usize>,
 }
 
 impl Problem {
-    /// The merit φ = −m_f/M + w·Σ|r̂| at the final state `y`.
-    fn merit(&self, y: &[f64; 7]) -> f64 {
-        -y[6] / MASS_SCALE_KG + penalty(self.residual(y).iter().map(|r| r.abs()).sum::<f64>())
+    /// The merit φ = −m_f/M + w·(Σ|r̂| + v) of a shot, v its path
+    /// violation.
+    fn merit(&self, shot: &Shot) -> f64 {
+        let y = &shot.y;
+        -y[6] / MASS_SCALE_KG
+            + penalty(self.residual(y).iter().map(|r| r.abs()).sum::<f64>())
+            + SLACK_WEIGHT * shot.path
+    }
+
+    fn z_f(&self) -> f64 {
+        self.target[1]
+    }
+
+    /// The path rows at the sensitivities `sens`, the step ends in `watch`
+    /// among them.
+    fn path_rows(
+        &self,
+        sens: &shooting::Sensitivity,
+        watch: &[usize],
+    ) -> Vec<(Vec<(usize, f64)>, f64)> {
+        ground::rows(
+            sens,
+            &self.layout,
+            &self.scales.0,
+            (self.z_f(), self.dry_mass_kg),
+            BOX,
+            watch,
+        )
+    }
+
+    fn shot_of(&self, sens: &shooting::Sensitivity) -> Shot {
+        self.shot_from(sens.final_state, &sens.track)
+    }
+
+    fn shot_from(&self, y: [f64; 7], track: &shooting::Track) -> Shot {
+        Shot {
+            y,
+            path: ground::violation(track, &self.layout, self.z_f(), y[6], self.dry_mass_kg),
+            below: ground::below(track, self.z_f()),
+        }
     }
 
     /// r̂ = R⁻¹·(y(t_f) − y_f).
@@ -125,12 +185,10 @@ impl Problem {
         std::array::from_fn(|i| (y[i] - self.target[i]) / RESIDUAL_SCALE[i])
     }
 
-    fn final_state(&self, p: &[f64]) -> Result<[f64; 7], PolishError> {
-        let y = *shooting::shoot(&self.model, &self.layout, self.y0, p)
-            .last()
-            .ok_or(PolishError::NonFinite)?;
-        if y.iter().all(|v| v.is_finite()) {
-            Ok(y)
+    fn shoot(&self, p: &[f64]) -> Result<Shot, PolishError> {
+        let (y, track) = shooting::shoot_track(&self.model, &self.layout, self.y0, p);
+        if y.iter().all(|v| v.is_finite()) && track.z_m.iter().all(|v| v.is_finite()) {
+            Ok(self.shot_from(y, &track))
         } else {
             Err(PolishError::NonFinite)
         }
@@ -157,19 +215,27 @@ pub fn polish(scenario: &Scenario, sol: &Solution) -> Result<Polished, PolishErr
         target: scenario.terminal.state_si(),
         y0: [s0[0], s0[1], s0[2], s0[3], s0[4], s0[5], s0[6]],
         delta0: s0[7],
+        dry_mass_kg: model.dry_mass_kg,
         model,
         layout,
         scales,
     };
     let mut qp_iterations = 0;
     let mut p = project(&problem, &p, &mut qp_iterations)?;
-    let (iterations, y) = iterate(&problem, &mut p, &mut qp_iterations)?;
+    let (iterations, shot) = iterate(&problem, &mut p, &mut qp_iterations)?;
+    let y = shot.y;
     let e = crate::verify::propagate::landing_error(scenario, &y);
     if problem.residual(&y).iter().map(|r| r.abs()).sum::<f64>() > 10.0 * RESIDUAL_TOLERANCE {
         return Err(PolishError::NotLanded {
             iterations,
             position_m: e.position_m,
             velocity_mps: e.velocity_mps,
+        });
+    }
+    if shot.path > PATH_TOLERANCE {
+        return Err(PolishError::Path {
+            iterations,
+            violation: shot.path,
         });
     }
     Ok(Polished {
@@ -198,6 +264,7 @@ fn project(problem: &Problem, p: &[f64], qp_iterations: &mut u32) -> Result<Vec<
         mass_gradient: &zeros,
         trust_radius: 1e3,
         proximal_weight: 1.0,
+        path: &[],
     };
     let step = subproblem::solve(&qp, p.len()).map_err(|reason| PolishError::Subproblem {
         iteration: 0,
@@ -210,45 +277,50 @@ fn project(problem: &Problem, p: &[f64], qp_iterations: &mut u32) -> Result<Vec<
 /// The SCvx iteration: linearize the shot at p, solve the QP with the
 /// proximal weight, accept or reject by the merit's actual against
 /// predicted decrease; then the landing corrections ([`correct`]).
-/// Returns the iterations and the final state at the last p.
+/// Returns the iterations and the shot at the last p.
 fn iterate(
     problem: &Problem,
     p: &mut Vec<f64>,
     qp_iterations: &mut u32,
-) -> Result<(usize, [f64; 7]), PolishError> {
+) -> Result<(usize, Shot), PolishError> {
     let mut weight = PROXIMAL_INITIAL;
     let mut sens = shooting::sensitivity(&problem.model, &problem.layout, problem.y0, p);
+    let mut watch: Vec<usize> = Vec::new();
     let mut iteration = 0;
     while iteration < MAX_ITERATIONS {
         iteration += 1;
-        let y = sens.final_state;
+        let shot = problem.shot_of(&sens);
+        let y = shot.y;
         if !y.iter().all(|v| v.is_finite()) {
             return Err(PolishError::NonFinite);
         }
         let (terminal, gradient) = linearize(problem, &sens);
-        let step = qp(problem, p, &terminal, &gradient, weight, qp_iterations)
-            .map_err(|reason| PolishError::Subproblem { iteration, reason })?;
-        let phi = problem.merit(&y);
+        let path = problem.path_rows(&sens, &watch);
+        let step = qp(
+            problem,
+            p,
+            &terminal,
+            &gradient,
+            weight,
+            &path,
+            qp_iterations,
+        )
+        .map_err(|reason| PolishError::Subproblem { iteration, reason })?;
+        let phi = problem.merit(&shot);
         let gain: f64 = gradient.iter().zip(&step.dp).map(|(g, d)| g * d).sum();
-        // The linearized residual from the step itself, not the QP's slacks:
-        // below ~1e-6 the QP's tolerances, not the model, set those.
-        let linear: f64 = (0..6)
-            .map(|i| {
-                let change: f64 = terminal.jacobian[i]
-                    .iter()
-                    .zip(&step.dp)
-                    .map(|(a, d)| a * d)
-                    .sum();
-                (terminal.residual[i] + change).abs()
-            })
-            .sum();
-        let predicted = phi - (-y[6] / MASS_SCALE_KG - gain + penalty(linear));
+        let predicted = phi
+            - (-y[6] / MASS_SCALE_KG - gain
+                + penalty(linear_residual(&terminal, &step.dp))
+                + SLACK_WEIGHT * linear_path(shot.path, &path, &step.dp));
         let residual: f64 = problem.residual(&y).iter().map(|r| r.abs()).sum();
-        if residual < RESIDUAL_TOLERANCE && gain * MASS_SCALE_KG < MASS_TOLERANCE_KG {
+        if residual < RESIDUAL_TOLERANCE
+            && shot.path <= PATH_TOLERANCE
+            && gain * MASS_SCALE_KG < MASS_TOLERANCE_KG
+        {
             break;
         }
         let candidate = problem.moved(p, &step.dp);
-        let (candidate, actual) = judge(
+        let (candidate, actual, tried) = judge(
             problem,
             &terminal,
             p,
@@ -261,6 +333,10 @@ fn iterate(
         if rho > 0.0 {
             *p = candidate;
             sens = shooting::sensitivity(&problem.model, &problem.layout, problem.y0, p);
+        } else if watch_new(&mut watch, tried.as_ref().map_or(&[][..], |s| &s.below)) {
+            // The step went through the ground where no row was: the same
+            // QP again with those rows, at the same weight.
+            continue;
         }
         weight = if rho < RHO_SHRINK {
             weight * 4.0
@@ -274,17 +350,68 @@ fn iterate(
         }
     }
     let (terminal, _) = linearize(problem, &sens);
-    let y = correct(problem, &terminal, p, sens.final_state, qp_iterations);
-    Ok((iteration, y))
+    let path = problem.path_rows(&sens, &watch);
+    let shot = correct(
+        problem,
+        &terminal,
+        &path,
+        p,
+        problem.shot_of(&sens),
+        qp_iterations,
+    );
+    Ok((iteration, shot))
+}
+
+/// Add the steps of `below` to the sorted `watch`; whether any was new.
+fn watch_new(watch: &mut Vec<usize>, below: &[usize]) -> bool {
+    let before = watch.len();
+    for &k in below {
+        if let Err(at) = watch.binary_search(&k) {
+            watch.insert(at, k);
+        }
+    }
+    watch.len() > before
+}
+
+/// Σ|r̂ + J·Δp̂|: the linearized residual from the step itself, not the
+/// QP's slacks (below ~1e-6 the QP's tolerances, not the model, set those).
+fn linear_residual(terminal: &Terminal, dp: &[f64]) -> f64 {
+    (0..6)
+        .map(|i| {
+            let change: f64 = terminal.jacobian[i]
+                .iter()
+                .zip(dp)
+                .map(|(a, d)| a * d)
+                .sum();
+            (terminal.residual[i] + change).abs()
+        })
+        .sum()
+}
+
+/// The path violation linearized along the step: max(0, a·Δp̂ − b) over
+/// the QP's path rows, and at least the part of today's violation that no
+/// row carries (the rows leave out points out of reach).
+fn linear_path(current: f64, rows: &[(Vec<(usize, f64)>, f64)], dp: &[f64]) -> f64 {
+    let worst = rows
+        .iter()
+        .map(|(terms, b)| terms.iter().map(|&(c, a)| a * dp[c]).sum::<f64>() - b)
+        .fold(0.0, f64::max);
+    if rows.is_empty() {
+        current
+    } else {
+        worst
+    }
 }
 
 /// One QP of the iteration at p.
+#[allow(clippy::too_many_arguments)]
 fn qp(
     problem: &Problem,
     p: &[f64],
     terminal: &Terminal,
     gradient: &[f64],
     weight: f64,
+    path: &[(Vec<(usize, f64)>, f64)],
     qp_iterations: &mut u32,
 ) -> Result<subproblem::Step, String> {
     let rows = linear_rows(
@@ -301,6 +428,7 @@ fn qp(
             mass_gradient: gradient,
             trust_radius: BOX,
             proximal_weight: weight,
+            path,
         },
         p.len(),
     )?;
@@ -310,39 +438,52 @@ fn qp(
 
 /// The landing corrections: chord steps (the Jacobian at the last
 /// linearization, the residual at the current point) of minimum norm
-/// within the linear constraints, while they shrink the residual, until
-/// it is below [`CORRECTED_RESIDUAL`] (at most three). They cost one shot
-/// each, no sensitivity. Returns the final state at the corrected p.
+/// within the linear constraints and the path rows of the last
+/// linearization, while they shrink the residual without a path
+/// violation, until it is below [`CORRECTED_RESIDUAL`] (at most three).
+/// They cost one shot each, no sensitivity. Returns the shot at the
+/// corrected p.
 fn correct(
     problem: &Problem,
     terminal: &Terminal,
+    path: &[(Vec<(usize, f64)>, f64)],
     p: &mut Vec<f64>,
-    mut y: [f64; 7],
+    mut shot: Shot,
     qp_iterations: &mut u32,
-) -> [f64; 7] {
+) -> Shot {
     let size = |y: &[f64; 7]| problem.residual(y).iter().map(|r| r.abs()).sum::<f64>();
     let zeros = vec![0.0; p.len()];
     for _ in 0..3 {
-        if size(&y) < CORRECTED_RESIDUAL {
+        if size(&shot.y) < CORRECTED_RESIDUAL {
             break;
         }
         let chord = Terminal {
             jacobian: terminal.jacobian.clone(),
-            residual: problem.residual(&y),
+            residual: problem.residual(&shot.y),
         };
-        let Ok(step) = qp(problem, p, &chord, &zeros, CORRECTION_WEIGHT, qp_iterations) else {
+        let Ok(step) = qp(
+            problem,
+            p,
+            &chord,
+            &zeros,
+            CORRECTION_WEIGHT,
+            path,
+            qp_iterations,
+        ) else {
             break;
         };
         let candidate = problem.moved(p, &step.dp);
-        match problem.final_state(&candidate) {
-            Ok(yc) if size(&yc) < size(&y) => {
+        match problem.shoot(&candidate) {
+            Ok(next)
+                if size(&next.y) < size(&shot.y) && next.path <= shot.path.max(PATH_TOLERANCE) =>
+            {
                 *p = candidate;
-                y = yc;
+                shot = next;
             }
             _ => break,
         }
     }
-    y
+    shot
 }
 
 /// The candidate and its actual decrease of the merit. A poor candidate
@@ -351,6 +492,8 @@ fn correct(
 /// terminal residual along the Jacobian at p, within the linear
 /// constraints. Without it the exact penalty rejects good steps for their
 /// O(Δ²) residual (the Maratos effect) and the radius shrinks to nothing.
+/// The merit of either counts its path violation, from its own shot,
+/// which comes back too (None where the shot failed).
 fn judge(
     problem: &Problem,
     terminal: &Terminal,
@@ -359,22 +502,22 @@ fn judge(
     phi: f64,
     predicted: f64,
     qp_iterations: &mut u32,
-) -> (Vec<f64>, f64) {
-    let decrease = |q: &[f64]| match problem.final_state(q) {
-        Ok(y) => (phi - problem.merit(&y), Some(y)),
+) -> (Vec<f64>, f64, Option<Shot>) {
+    let decrease = |q: &[f64]| match problem.shoot(q) {
+        Ok(shot) => (phi - problem.merit(&shot), Some(shot)),
         Err(_) => (f64::NEG_INFINITY, None),
     };
-    let (actual, y) = decrease(&candidate);
-    let Some(y) = y else {
-        return (candidate, actual);
+    let (actual, shot) = decrease(&candidate);
+    let Some(shot) = shot else {
+        return (candidate, actual, None);
     };
     if actual >= RHO_SHRINK * predicted {
-        return (candidate, actual);
+        return (candidate, actual, Some(shot));
     }
     let zeros = vec![0.0; p.len()];
     let correction = Terminal {
         jacobian: terminal.jacobian.clone(),
-        residual: problem.residual(&y),
+        residual: problem.residual(&shot.y),
     };
     let Ok(step) = qp(
         problem,
@@ -382,14 +525,15 @@ fn judge(
         &correction,
         &zeros,
         CORRECTION_WEIGHT,
+        &[],
         qp_iterations,
     ) else {
-        return (candidate, actual);
+        return (candidate, actual, Some(shot));
     };
     let corrected = problem.moved(&candidate, &step.dp);
     match decrease(&corrected) {
-        (better, Some(_)) if better > actual => (corrected, better),
-        _ => (candidate, actual),
+        (better, Some(other)) if better > actual => (corrected, better, Some(other)),
+        _ => (candidate, actual, Some(shot)),
     }
 }
 

@@ -108,6 +108,7 @@ fn segment<T: DualNum<Primitive = f64> + Copy>(
     a: [T; NC],
     thrust: Result<f64, [T; NC]>,
     steps: usize,
+    mut on_step: impl FnMut(&[T; 7]),
 ) -> [T; 7] {
     let eval = |c: &[T; NC], s: f64| -> T {
         let p = legendre(s);
@@ -136,6 +137,7 @@ fn segment<T: DualNum<Primitive = f64> + Copy>(
         for i in 0..7 {
             y[i] += (k1[i] + (k2[i] + k3[i]) * 2.0 + k4[i]) * (h / 6.0);
         }
+        on_step(&y);
     }
     y
 }
@@ -151,6 +153,17 @@ fn coefficients<T: Copy>(p: &[T], at: usize) -> [T; NC] {
 
 /// The states at every segment's end, in f64 (the last is y(t_f)).
 pub fn shoot(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> Vec<[f64; 7]> {
+    shoot_with(model, layout, y0, p, |_, _| ())
+}
+
+/// [`shoot`], calling `on_step(j, y)` after every RK4 step of segment j.
+pub fn shoot_with(
+    model: &Model,
+    layout: &Layout,
+    y0: [f64; 7],
+    p: &[f64],
+    mut on_step: impl FnMut(usize, &[f64; 7]),
+) -> Vec<[f64; 7]> {
     let mut y = y0;
     let mut ends = Vec::with_capacity(layout.segments.len());
     for (j, seg) in layout.segments.iter().enumerate() {
@@ -166,6 +179,7 @@ pub fn shoot(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> Vec<[f6
             coefficients(p, layout.delta(j)),
             thrust,
             seg.steps,
+            |y| on_step(j, y),
         );
         ends.push(y);
     }
@@ -179,11 +193,18 @@ fn bound(seg: &Segment) -> f64 {
     }
 }
 
-/// y(t_f) and its Jacobian against p (7 × layout.len, row-major).
+/// y(t_f) and its Jacobian against p (7 × layout.len, row-major), and the
+/// shot's track of (z, Vz) at every RK4 step with their gradients
+/// ([`crate::polish::ground`] builds the ground's rows from them).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sensitivity {
     pub final_state: [f64; 7],
     pub jacobian: Vec<[f64; 7]>,
+    pub track: Track,
+    /// ∂z/∂p at track point k: `dz[k·len..(k + 1)·len]` (zero at k = 0).
+    pub dz: Vec<f64>,
+    /// ∂Vz/∂p at track point k, likewise.
+    pub dvz: Vec<f64>,
 }
 
 impl Sensitivity {
@@ -193,13 +214,77 @@ impl Sensitivity {
     }
 }
 
-/// y(t_f) and ∂y(t_f)/∂p by forward-mode differentiation, segment by
-/// segment, chained backwards (module docs).
+/// (z, Vz) of a shot at its start (k = 0) and after every RK4 step
+/// (k = 1..=K, the last at t_f), with the length of the step that ends at
+/// k in time (h_s\[0\] = 0) and its segment.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Track {
+    pub z_m: Vec<f64>,
+    pub vz_mps: Vec<f64>,
+    pub h_s: Vec<f64>,
+    pub segment: Vec<usize>,
+}
+
+impl Track {
+    fn start(y0: &[f64; 7], capacity: usize) -> Self {
+        let mut t = Track {
+            z_m: Vec::with_capacity(capacity),
+            vz_mps: Vec::with_capacity(capacity),
+            h_s: Vec::with_capacity(capacity),
+            segment: Vec::with_capacity(capacity),
+        };
+        t.push(y0[1], y0[3], 0.0, 0);
+        t
+    }
+
+    fn push(&mut self, z: f64, vz: f64, h: f64, j: usize) {
+        self.z_m.push(z);
+        self.vz_mps.push(vz);
+        self.h_s.push(h);
+        self.segment.push(j);
+    }
+
+    /// Points of the track: the start and one per RK4 step.
+    pub fn len(&self) -> usize {
+        self.z_m.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.z_m.is_empty()
+    }
+}
+
+/// Total RK4 steps of a layout.
+fn total_steps(layout: &Layout) -> usize {
+    layout.segments.iter().map(|s| s.steps).sum()
+}
+
+/// y(t_f) and the track of a shot, in f64.
+pub fn shoot_track(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> ([f64; 7], Track) {
+    let mut track = Track::start(&y0, total_steps(layout) + 1);
+    let ends = shoot_with(model, layout, y0, p, |j, y| {
+        let h = p[layout.duration(j)] / layout.segments[j].steps as f64;
+        track.push(y[1], y[3], h, j);
+    });
+    (*ends.last().unwrap_or(&y0), track)
+}
+
+/// y(t_f), ∂y(t_f)/∂p and the track's gradients by forward-mode
+/// differentiation, segment by segment: the end state chained backwards,
+/// the track forwards through A_j = ∂y(start of segment j)/∂p (module docs).
 pub fn sensitivity(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> Sensitivity {
     let nseg = layout.segments.len();
+    let len = layout.len;
+    let points = total_steps(layout) + 1;
     let mut phi: Vec<[[f64; 7]; 7]> = Vec::with_capacity(nseg);
     let mut g: Vec<[[f64; MAX_SEGMENT_PARAMS]; 7]> = Vec::with_capacity(nseg);
+    let mut track = Track::start(&y0, points);
+    let mut dz = vec![0.0; points * len];
+    let mut dvz = vec![0.0; points * len];
+    // A = ∂y(start of the current segment)/∂p, 7 rows of len.
+    let mut a = vec![0.0; 7 * len];
     let mut y = y0;
+    let mut k = 0;
     for (j, seg) in layout.segments.iter().enumerate() {
         let yd: [D; 7] = std::array::from_fn(|i| D::from_re(y[i]).derivative(i));
         let o = layout.offset[j];
@@ -210,7 +295,27 @@ pub fn sensitivity(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> S
             ArcKind::Free => Err(coefficients(&pd, 1 + NC)),
             ArcKind::Bound(v) => Ok(v),
         };
-        let end = segment(model, yd, pd[0], coefficients(&pd, 1), thrust, seg.steps);
+        let h = p[o] / seg.steps as f64;
+        let end = segment(
+            model,
+            yd,
+            pd[0],
+            coefficients(&pd, 1),
+            thrust,
+            seg.steps,
+            |ys| {
+                k += 1;
+                track.push(ys[1].re, ys[3].re, h, j);
+                chain(&ys[1], &a, o, seg.params(), &mut dz[k * len..(k + 1) * len]);
+                chain(
+                    &ys[3],
+                    &a,
+                    o,
+                    seg.params(),
+                    &mut dvz[k * len..(k + 1) * len],
+                );
+            },
+        );
         let mut ph = [[0.0; 7]; 7];
         let mut gj = [[0.0; MAX_SEGMENT_PARAMS]; 7];
         for (i, e) in end.iter().enumerate() {
@@ -224,6 +329,11 @@ pub fn sensitivity(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> S
                 }
             }
         }
+        let mut next = vec![0.0; 7 * len];
+        for (i, e) in end.iter().enumerate() {
+            chain(e, &a, o, seg.params(), &mut next[i * len..(i + 1) * len]);
+        }
+        a = next;
         phi.push(ph);
         g.push(gj);
     }
@@ -242,6 +352,29 @@ pub fn sensitivity(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> S
     Sensitivity {
         final_state: y,
         jacobian,
+        track,
+        dz,
+        dvz,
+    }
+}
+
+/// ∂v/∂p of a dual `v` of the current segment: its derivatives against the
+/// segment's start state through A, plus those against the segment's own
+/// `params` parameters at offset `o`.
+fn chain(v: &D, a: &[f64], o: usize, params: usize, out: &mut [f64]) {
+    let len = out.len();
+    out.fill(0.0);
+    let Some(eps) = &v.eps.0 else { return };
+    for c in 0..7 {
+        let e = eps[c];
+        if e != 0.0 {
+            for (o, a) in out.iter_mut().zip(&a[c * len..(c + 1) * len]) {
+                *o += e * a;
+            }
+        }
+    }
+    for c in 0..params {
+        out[o + c] += eps[7 + c];
     }
 }
 

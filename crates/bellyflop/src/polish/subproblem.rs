@@ -18,7 +18,7 @@
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
 
-use crate::flown::{legendre, legendre_slope};
+use crate::flown::{critical_points, legendre, legendre_slope};
 use crate::polish::shooting::{Layout, NC};
 use crate::problem::dynamics::Model;
 
@@ -70,7 +70,18 @@ pub struct Rows {
     pub le: Vec<(Vec<(usize, f64)>, f64)>,
 }
 
-/// The constraints that are linear in p (module docs), at the point `p`.
+/// How far inside its bounds a control is held, as a fraction of the
+/// bound's scale (T_max − T_min, δ_max, χ_max): a QP solution meets its
+/// rows only to Clarabel's tolerances, so the rows stand this far inside
+/// and the answer is within its bounds to rounding. (At 1e-7, χ ended
+/// 1e-7 to 3.4e-7 of χ_max beyond it on 3 of 300 seeded states,
+/// `bench/safety.py`; at 1e-6, on none.)
+pub const BOUND_MARGIN: f64 = 1e-6;
+
+/// The constraints that are linear in p (module docs), at the point `p`:
+/// each bound at the [`GRID`] points of every segment and at the current
+/// interior extrema of its polynomial ([`critical_points`]), within
+/// [`BOUND_MARGIN`] of it.
 pub fn linear_rows(
     layout: &Layout,
     model: &Model,
@@ -85,16 +96,28 @@ pub fn linear_rows(
         let value = (0..NC).map(|k| basis[k] * p[at + k]).sum();
         (terms, value)
     };
-    let (dmax, chimax) = (model.max_gimbal_rad, model.max_gimbal_rate_radps);
-    let (tlo, thi) = (model.min_thrust_n, model.max_thrust_n);
+    let dmax = model.max_gimbal_rad * (1.0 - BOUND_MARGIN);
+    let chimax = model.max_gimbal_rate_radps * (1.0 - BOUND_MARGIN);
+    let margin_t = BOUND_MARGIN * (model.max_thrust_n - model.min_thrust_n);
+    let (tlo, thi) = (model.min_thrust_n + margin_t, model.max_thrust_n - margin_t);
     let last = layout.segments.len() - 1;
+    let grid = (0..GRID).map(|g| g as f64 / (GRID - 1) as f64);
     for (j, seg) in layout.segments.iter().enumerate() {
         let (dj, aj) = (layout.duration(j), layout.delta(j));
-        for g in 0..GRID {
-            let s = g as f64 / (GRID - 1) as f64;
-            let (terms, v) = poly(aj, &legendre(s));
-            rows.le.push((terms.clone(), dmax - v));
-            rows.le.push((negate(&terms), dmax + v));
+        let (delta_extrema, rate_extremum) = critical_points(&p[aj..aj + NC]);
+        // δ(0) of the first segment is δ_0, fixed by an equality.
+        let first = usize::from(j == 0);
+        for s in grid.clone().skip(first).chain(delta_extrema) {
+            if s.is_finite() {
+                let (terms, v) = poly(aj, &legendre(s));
+                rows.le.push((terms.clone(), dmax - v));
+                rows.le.push((negate(&terms), dmax + v));
+            }
+        }
+        for s in grid.clone().chain([rate_extremum]) {
+            if !s.is_finite() {
+                continue;
+            }
             // ±dδ/ds − χ_max·d ≤ 0.
             let (mut terms, v) = poly(aj, &legendre_slope(s));
             let d = p[dj];
@@ -103,10 +126,15 @@ pub fn linear_rows(
             neg.push((dj, -chimax * sc[dj]));
             rows.le.push((terms, chimax * d - v));
             rows.le.push((neg, chimax * d + v));
-            if let Some(at) = layout.thrust(j) {
-                let (terms, v) = poly(at, &legendre(s));
-                rows.le.push((terms.clone(), thi - v));
-                rows.le.push((negate(&terms), v - tlo));
+        }
+        if let Some(at) = layout.thrust(j) {
+            let (thrust_extrema, _) = critical_points(&p[at..at + NC]);
+            for s in grid.clone().chain(thrust_extrema) {
+                if s.is_finite() {
+                    let (terms, v) = poly(at, &legendre(s));
+                    rows.le.push((terms.clone(), thi - v));
+                    rows.le.push((negate(&terms), v - tlo));
+                }
             }
         }
         rows.le.push((vec![(dj, sc[dj])], seg.d_max_s - p[dj]));
@@ -148,6 +176,9 @@ pub struct Qp<'a> {
     pub trust_radius: f64,
     /// The weight ε of the proximal term ½·ε·‖Δp̂‖².
     pub proximal_weight: f64,
+    /// The path rows a·Δp̂ − ν ≤ b ([`crate::polish::ground::rows`]),
+    /// sharing one slack ν ≥ 0 weighted [`SLACK_WEIGHT`].
+    pub path: &'a [(Vec<(usize, f64)>, f64)],
 }
 
 /// The QP's answer: the scaled step and the slacks' sum (scaled).
@@ -161,7 +192,8 @@ pub struct Step {
 /// Solve one QP with Clarabel. An error names Clarabel's status.
 pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
     let with_terminal = qp.terminal.is_some();
-    let nv = n + if with_terminal { 12 } else { 0 };
+    let path_slack = n + if with_terminal { 12 } else { 0 };
+    let nv = path_slack + usize::from(!qp.path.is_empty());
     // Objective.
     let mut q = vec![SLACK_WEIGHT; nv];
     for (q, g) in q.iter_mut().zip(qp.mass_gradient).take(n) {
@@ -206,6 +238,11 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
             put(terms, *rhs, &mut row);
         }
     }
+    for (terms, rhs) in qp.path {
+        let mut terms = terms.clone();
+        terms.push((path_slack, -1.0));
+        put(&terms, *rhs, &mut row);
+    }
     for i in 0..n {
         put(&[(i, 1.0)], qp.trust_radius, &mut row);
         put(&[(i, -1.0)], qp.trust_radius, &mut row);
@@ -235,7 +272,7 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
         {
             Ok(Step {
                 dp: sol.x[..n].to_vec(),
-                slack: sol.x[n..].iter().sum(),
+                slack: sol.x[n..path_slack].iter().sum(),
                 iterations: sol.iterations,
             })
         }

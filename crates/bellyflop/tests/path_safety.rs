@@ -1,0 +1,119 @@
+//! Issue 35, step 0: `solved` claims the path constraints along the whole
+//! flight, in continuous time, and the polish meets them.
+
+use bellyflop::flown::Signal;
+use bellyflop::input::scenario::Scenario;
+use bellyflop::method::observer::Silent;
+use bellyflop::problem::dynamics::{rhs_physical, Model};
+use bellyflop::verify::path;
+use bellyflop::{SolverSettings, Status};
+
+/// A state of the documented envelope whose polished answer used to fly
+/// through the ground (z down to −3.3 m at 14 s, before its touchdown at
+/// 17.07 s) while `solved`.
+fn ground_skimmer() -> Scenario {
+    let mut s = Scenario::paper();
+    s.initial.x_m = -170.334168;
+    s.initial.z_m = 565.705127;
+    s.initial.vx_mps = -7.009007;
+    s.initial.vz_mps = -89.736597;
+    s.initial.theta_deg = 90.023837;
+    s.initial.mass_kg = 122_536.266406;
+    s
+}
+
+/// The lowest z − z_f of the flown controls before the touchdown, by a
+/// fixed 1 ms RK4 written here from the published format alone.
+fn lowest_before_touchdown(scenario: &Scenario, sol: &bellyflop::Solution) -> f64 {
+    let model = Model::new(&scenario.vehicle, &scenario.environment);
+    let s0 = scenario.initial.state_si();
+    let mut y = [s0[0], s0[1], s0[2], s0[3], s0[4], s0[5], s0[6]];
+    let mut lowest = f64::INFINITY;
+    let flown = sol.controls_flown.as_ref().unwrap();
+    let last = flown.pieces.len() - 1;
+    for (j, piece) in flown.pieces.iter().enumerate() {
+        let d = piece.t_end_s - piece.t_start_s;
+        let steps = (d / 1e-3).ceil().max(1.0) as usize;
+        let h = d / steps as f64;
+        let f = |t: f64, y: &[f64; 7]| {
+            let s = (t - piece.t_start_s) / d;
+            rhs_physical(&model, y, piece.thrust_n.value(s), piece.delta_rad.value(s))
+        };
+        for k in 0..steps {
+            let t = piece.t_start_s + k as f64 * h;
+            let add = |y: &[f64; 7], k: &[f64; 7], c: f64| std::array::from_fn(|i| y[i] + c * k[i]);
+            let k1 = f(t, &y);
+            let k2 = f(t + 0.5 * h, &add(&y, &k1, 0.5 * h));
+            let k3 = f(t + 0.5 * h, &add(&y, &k2, 0.5 * h));
+            let k4 = f(t + h, &add(&y, &k3, h));
+            for i in 0..7 {
+                y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+            if !(j == last && k + 1 == steps) {
+                lowest = lowest.min(y[1] - scenario.terminal.z_m);
+            }
+        }
+    }
+    lowest
+}
+
+#[test]
+fn the_ground_skimmer_is_solved_above_the_ground_and_within_its_bounds() {
+    let scenario = ground_skimmer();
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    assert_eq!(sol.status, Status::Solved, "{}", sol.message);
+    let report = sol.path.expect("a solved answer carries its path report");
+    assert!(report.ground_contact_t_s.is_none(), "{report:?}");
+    assert!(report.min_clearance_m >= -1e-3, "{report:?}");
+    // Independently: no 1 ms RK4 step before the touchdown below 1 mm.
+    let lowest = lowest_before_touchdown(&scenario, &sol);
+    assert!(lowest >= -1e-3, "the flight dips to {lowest} m");
+    // The published node arrays sample the same flight.
+    let low_node = sol.z_m.iter().cloned().fold(f64::INFINITY, f64::min);
+    assert!(low_node >= -1e-3, "a node at {low_node} m");
+    let model = Model::new(&scenario.vehicle, &scenario.environment);
+    assert!(path::violations(&report, &model).is_empty());
+    assert!(report.thrust_min_n >= model.min_thrust_n && report.thrust_max_n <= model.max_thrust_n);
+    assert!(report.gimbal_max_rad <= model.max_gimbal_rad);
+    assert!(report.gimbal_rate_max_radps <= model.max_gimbal_rate_radps);
+}
+
+/// The check finds what happens between grid points: a cubic thrust that
+/// dips below T_min between its ends, and a δ that overshoots δ_max
+/// between them, demote a `solved` answer to `inaccurate`, naming each.
+#[test]
+fn a_bound_broken_between_grid_points_demotes_a_solved_answer() {
+    let scenario = Scenario::paper();
+    let mut sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    assert_eq!(sol.status, Status::Solved, "{}", sol.message);
+    let model = Model::new(&scenario.vehicle, &scenario.environment);
+    let flown = sol.controls_flown.as_mut().unwrap();
+    let piece = &mut flown.pieces[0];
+    // T = (T_min − 1 kN)·P̃0 + 2 kN·P̃2: T_min + 1 kN at both ends
+    // (P̃2(0) = P̃2(1) = 1), T_min − 2 kN mid-piece (P̃2(½) = −½, its
+    // minimum).
+    piece.thrust_n = Signal::Polynomial {
+        basis: bellyflop::flown::Basis::ShiftedLegendre,
+        coefficients: vec![model.min_thrust_n - 1000.0, 0.0, 2000.0, 0.0],
+    };
+    let ends = (piece.thrust_n.value(0.0), piece.thrust_n.value(1.0));
+    assert!(ends.0 >= model.min_thrust_n && ends.1 >= model.min_thrust_n);
+    assert!(piece.thrust_n.value(0.5) < model.min_thrust_n);
+    sol.path = None;
+    path::check(&scenario, &mut sol);
+    assert_eq!(sol.status, Status::Inaccurate);
+    assert!(sol.message.contains("below T_min"), "{}", sol.message);
+    let report = sol.path.unwrap();
+    assert!((report.thrust_min_n - (model.min_thrust_n - 2000.0)).abs() < 1e-6);
+}
+
+#[test]
+fn the_paper_case_reports_its_path() {
+    let scenario = Scenario::paper();
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    assert_eq!(sol.status, Status::Solved, "{}", sol.message);
+    let r = sol.path.unwrap();
+    // The paper's answer stays well above the ground until its last second.
+    assert!(r.min_clearance_before_last_second_m > 1.0, "{r:?}");
+    assert!((r.final_mass_kg - sol.final_mass_kg).abs() < 1e-3);
+}
