@@ -255,8 +255,16 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
         SupportedConeT::ZeroConeT(n_eq),
         SupportedConeT::NonnegativeConeT(row - n_eq),
     ];
+    // Fewer and looser refinement steps of the KKT solves than Clarabel's
+    // defaults (10 steps to 1e-13): the step is judged by the shot itself,
+    // and refinement was a quarter of the polish's time. On 5 states
+    // (valgrind --tool=callgrind, whole `bellyflop solve`): 8.5 % fewer
+    // instructions, the same final masses to 0.6 kg.
     let settings = DefaultSettings {
         verbose: false,
+        iterative_refinement_reltol: 1e-10,
+        iterative_refinement_abstol: 1e-10,
+        iterative_refinement_max_iter: 3,
         ..DefaultSettings::default()
     };
     let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings)
