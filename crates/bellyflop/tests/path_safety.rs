@@ -1,10 +1,12 @@
 //! Issue 35, step 0: `solved` claims the path constraints along the whole
 //! flight, in continuous time, and the polish meets them.
 
+mod common;
+
 use bellyflop::flown::Signal;
 use bellyflop::input::scenario::Scenario;
 use bellyflop::method::observer::Silent;
-use bellyflop::problem::dynamics::{rhs_physical, Model};
+use bellyflop::problem::dynamics::Model;
 use bellyflop::verify::path;
 use bellyflop::{SolverSettings, Status};
 
@@ -23,37 +25,15 @@ fn ground_skimmer() -> Scenario {
 }
 
 /// The lowest z − z_f of the flown controls before the touchdown, by a
-/// fixed 1 ms RK4 written here from the published format alone.
+/// fixed 1 ms RK4 written from the published format alone.
 fn lowest_before_touchdown(scenario: &Scenario, sol: &bellyflop::Solution) -> f64 {
-    let model = Model::new(&scenario.vehicle, &scenario.environment);
-    let s0 = scenario.initial.state_si();
-    let mut y = [s0[0], s0[1], s0[2], s0[3], s0[4], s0[5], s0[6]];
     let mut lowest = f64::INFINITY;
     let flown = sol.controls_flown.as_ref().unwrap();
-    let last = flown.pieces.len() - 1;
-    for (j, piece) in flown.pieces.iter().enumerate() {
-        let d = piece.t_end_s - piece.t_start_s;
-        let steps = (d / 1e-3).ceil().max(1.0) as usize;
-        let h = d / steps as f64;
-        let f = |t: f64, y: &[f64; 7]| {
-            let s = (t - piece.t_start_s) / d;
-            rhs_physical(&model, y, piece.thrust_n.value(s), piece.delta_rad.value(s))
-        };
-        for k in 0..steps {
-            let t = piece.t_start_s + k as f64 * h;
-            let add = |y: &[f64; 7], k: &[f64; 7], c: f64| std::array::from_fn(|i| y[i] + c * k[i]);
-            let k1 = f(t, &y);
-            let k2 = f(t + 0.5 * h, &add(&y, &k1, 0.5 * h));
-            let k3 = f(t + 0.5 * h, &add(&y, &k2, 0.5 * h));
-            let k4 = f(t + h, &add(&y, &k3, h));
-            for i in 0..7 {
-                y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-            }
-            if !(j == last && k + 1 == steps) {
-                lowest = lowest.min(y[1] - scenario.terminal.z_m);
-            }
+    common::rk4::fly(scenario, flown, |last, y| {
+        if !last {
+            lowest = lowest.min(y[1] - scenario.terminal.z_m);
         }
-    }
+    });
     lowest
 }
 

@@ -1,1 +1,2 @@
 pub mod labelled;
+pub mod rk4;
