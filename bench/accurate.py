@@ -95,8 +95,9 @@ def rhs_factory(sc):
     return rhs
 
 
-def scipy_landing(sc, flown):
-    """Landing error of `controls_flown` by scipy's DOP853, piece by piece."""
+def integrate_pieces(sc, flown, dense=False):
+    """`controls_flown` flown by scipy's DOP853 (rtol = atol = 1e-10), piece by piece
+    from the initial state: yields (piece, solve_ivp's result) for each piece."""
     rhs = rhs_factory(sc)
     i = sc["initial"]
     y = [i["x_m"], i["z_m"], i["vx_mps"], i["vz_mps"], math.radians(i["theta_deg"]),
@@ -110,7 +111,16 @@ def scipy_landing(sc, flown):
         def f(t, y, p=p, t0=t0, d=d):
             s = min(max((t - t0) / d, 0.0), 1.0)
             return rhs(y, signal(p["thrust_n"], s), signal(p["delta_rad"], s))
-        r = solve_ivp(f, (t0, t1), y, method="DOP853", rtol=1e-10, atol=1e-10)
+        r = solve_ivp(f, (t0, t1), y, method="DOP853", rtol=1e-10, atol=1e-10, dense_output=dense)
+        y = list(r.y[:, -1])
+        yield p, r
+
+
+def scipy_landing(sc, flown):
+    """Landing error of `controls_flown` by scipy's DOP853, piece by piece."""
+    i = sc["initial"]
+    y = [i["x_m"], i["z_m"], i["vx_mps"], i["vz_mps"]] + [0.0, 0.0, i["mass_kg"]]
+    for _, r in integrate_pieces(sc, flown):
         y = list(r.y[:, -1])
     t = sc["terminal"]
     return math.hypot(y[0] - t["x_m"], y[1] - t["z_m"]), math.hypot(y[2] - t["vx_mps"], y[3] - t["vz_mps"]), y[6]

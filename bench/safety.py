@@ -31,10 +31,9 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from accurate import rhs_factory, signal  # noqa: E402
+from accurate import integrate_pieces, signal  # noqa: E402
 from envelope import BIN, scenario_text, states  # noqa: E402
 
 GROUND_TOLERANCE_M = 1e-3
@@ -51,21 +50,11 @@ def slope(sig, s):
 
 def fly(sc, flown):
     """The flight of `controls_flown` on a 1 ms grid: t, z, T, delta, chi, and the final state."""
-    rhs = rhs_factory(sc)
-    i = sc["initial"]
-    y = [i["x_m"], i["z_m"], i["vx_mps"], i["vz_mps"], math.radians(i["theta_deg"]),
-         math.radians(i["pitch_rate_degps"]), i["mass_kg"]]
     ts, zs, thrust, delta, chi = [], [], [], [], []
-    for p in flown["pieces"]:
+    y = None
+    for p, r in integrate_pieces(sc, flown, dense=True):
         t0, t1 = p["t_start_s"], p["t_end_s"]
-        if t1 <= t0:
-            continue
         d = t1 - t0
-
-        def f(t, y, p=p, t0=t0, d=d):
-            s = min(max((t - t0) / d, 0.0), 1.0)
-            return rhs(y, signal(p["thrust_n"], s), signal(p["delta_rad"], s))
-        r = solve_ivp(f, (t0, t1), y, method="DOP853", rtol=1e-10, atol=1e-10, dense_output=True)
         grid = np.unique(np.concatenate([np.arange(math.ceil(t0 * 1e3), math.floor(t1 * 1e3) + 1) * 1e-3,
                                          [t0, t1]]))
         grid = grid[(grid >= t0) & (grid <= t1)]
