@@ -187,7 +187,11 @@ pub const STATE_COLUMN_NAMES: [&str; 8] = [
     "delta_rad",
 ];
 
-/// Checks of the returned trajectory against the nonlinear problem.
+/// Checks of the returned trajectory against the nonlinear problem. A
+/// polished answer's are its own ([`crate::polish::publish`]): no
+/// relaxation, the thrust along the nozzle, its flown thrust's bound
+/// violation, and as `max_defect` how far its shot and its published
+/// flight part at t_f.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Checks {
     /// max over nodes of 1 − ‖(Txm, Tzm)‖/σ (0 when the cone is tight).

@@ -97,3 +97,27 @@ fn the_paper_case_reports_its_path() {
     assert!(r.min_clearance_before_last_second_m > 1.0, "{r:?}");
     assert!((r.final_mass_kg - sol.final_mass_kg).abs() < 1e-3);
 }
+
+/// A polished answer's `checks` describe it, not the collocation answer it
+/// started from: its lowest published node, its flown thrust's bounds, and
+/// a shot that agrees with its flight.
+#[test]
+fn the_checks_of_a_polished_answer_are_its_own() {
+    let scenario = ground_skimmer();
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    assert_eq!(sol.status, Status::Solved, "{}", sol.message);
+    let c = sol.checks;
+    let lowest = sol
+        .z_m
+        .iter()
+        .map(|z| z - scenario.terminal.z_m)
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(c.min_altitude_margin_m, lowest);
+    assert_eq!(c.thrust_bound_violation_n, 0.0);
+    assert_eq!((c.relaxation_gap, c.virtual_control), (0.0, 0.0));
+    assert!(
+        c.max_defect < 1e-6,
+        "the shot and its flight part by {}",
+        c.max_defect
+    );
+}
