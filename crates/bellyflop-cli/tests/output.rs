@@ -314,9 +314,13 @@ fn init_then_solve_reproduces_the_paper_case() {
     let (code, default, _) = bellyflop(&["solve", "--json"]);
     assert_eq!(code, 0);
     let (a, b) = (json_of(&from_file), json_of(&default));
-    for key in ["tf_s", "final_mass_kg"] {
+    // The same optimum, to the polish's accuracy: it stops where its
+    // predicted gain is below MASS_TOLERANCE_KG (0.05 kg), and its dense
+    // QPs converge to 1e-9, so two raw answers 1e-9 apart end up to some
+    // 1e-4 kg and 1e-6 s apart (measured 6.6e-5 kg and 6.9e-7 s).
+    for (key, tolerance) in [("tf_s", 1e-5), ("final_mass_kg", 1e-3)] {
         let (x, y) = (a[key].as_f64().unwrap(), b[key].as_f64().unwrap());
-        assert!((x - y).abs() <= 1e-6, "{key}: {x} vs {y}");
+        assert!((x - y).abs() <= tolerance, "{key}: {x} vs {y}");
     }
     // The file starts from the guesses derived from the state (11.0 s,
     // 114.7 t), the paper's from its own (12 s, 110 t): the same optimum,

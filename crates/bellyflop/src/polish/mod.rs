@@ -24,6 +24,7 @@
 pub mod arcs;
 pub mod ground;
 pub mod publish;
+pub mod qp;
 pub mod shooting;
 pub mod start;
 pub mod subproblem;
@@ -112,7 +113,7 @@ pub struct Polished {
     /// The shot's (x, z, Vx, Vz, θ, w, m) at t_f.
     pub final_state: [f64; 7],
     pub iterations: usize,
-    /// Clarabel's iterations over every QP.
+    /// The interior point's iterations over every QP.
     pub qp_iterations: u32,
     pub time_ms: f64,
 }
@@ -303,6 +304,7 @@ fn iterate(
             &gradient,
             weight,
             &path,
+            None,
             qp_iterations,
         )
         .map_err(|reason| PolishError::Subproblem { iteration, reason })?;
@@ -316,6 +318,7 @@ fn iterate(
         if residual < RESIDUAL_TOLERANCE
             && shot.path <= PATH_TOLERANCE
             && gain * MASS_SCALE_KG < MASS_TOLERANCE_KG
+            && within_bounds(problem, p)
         {
             break;
         }
@@ -362,6 +365,29 @@ fn iterate(
     Ok((iteration, shot))
 }
 
+/// Whether p meets the bounds that are linear in it (not the QPs' margin
+/// inside them) at its own grid and extrema ([`subproblem::bound_rows`]),
+/// to rounding. An accepted step meets the rows
+/// of the point it was taken from; the extrema of its polynomials move with
+/// it, and a bound can be exceeded between the old extrema (by up to 1.4e-4
+/// of χ_max on the seeded envelope, `bench/safety.py`) until a step from
+/// the new point takes it back.
+fn within_bounds(problem: &Problem, p: &[f64]) -> bool {
+    let rows = subproblem::bound_rows(
+        &problem.layout,
+        &problem.model,
+        &problem.scales,
+        p,
+        problem.delta0,
+        0.0,
+        None,
+    );
+    rows.le.iter().all(|(terms, rhs)| {
+        let size = terms.iter().map(|(_, a)| a.abs()).fold(0.0, f64::max);
+        *rhs >= -1e-9 * size
+    })
+}
+
 /// Add the steps of `below` to the sorted `watch`; whether any was new.
 fn watch_new(watch: &mut Vec<usize>, below: &[usize]) -> bool {
     let before = watch.len();
@@ -403,7 +429,8 @@ fn linear_path(current: f64, rows: &[(Vec<(usize, f64)>, f64)], dp: &[f64]) -> f
     }
 }
 
-/// One QP of the iteration at p.
+/// One QP of the iteration at p (with the bounds also at the extrema of
+/// `also`, [`subproblem::bound_rows`]).
 #[allow(clippy::too_many_arguments)]
 fn qp(
     problem: &Problem,
@@ -412,14 +439,17 @@ fn qp(
     gradient: &[f64],
     weight: f64,
     path: &[(Vec<(usize, f64)>, f64)],
+    also: Option<&[f64]>,
     qp_iterations: &mut u32,
 ) -> Result<subproblem::Step, String> {
-    let rows = linear_rows(
+    let rows = subproblem::bound_rows(
         &problem.layout,
         &problem.model,
         &problem.scales,
         p,
         problem.delta0,
+        subproblem::BOUND_MARGIN,
+        also,
     );
     let step = subproblem::solve(
         &Qp {
@@ -440,7 +470,8 @@ fn qp(
 /// linearization, the residual at the current point) of minimum norm
 /// within the linear constraints and the path rows of the last
 /// linearization, while they shrink the residual without a path
-/// violation, until it is below [`CORRECTED_RESIDUAL`] (at most three).
+/// violation, until it is below [`CORRECTED_RESIDUAL`] and p within its
+/// bounds at its own extrema (at most six QPs).
 /// They cost one shot each, no sensitivity. Returns the shot at the
 /// corrected p.
 fn correct(
@@ -453,8 +484,11 @@ fn correct(
 ) -> Shot {
     let size = |y: &[f64; 7]| problem.residual(y).iter().map(|r| r.abs()).sum::<f64>();
     let zeros = vec![0.0; p.len()];
-    for _ in 0..3 {
-        if size(&shot.y) < CORRECTED_RESIDUAL {
+    // A candidate out of its bounds: the same correction again with rows at
+    // its extrema too.
+    let mut outside: Option<Vec<f64>> = None;
+    for _ in 0..6 {
+        if size(&shot.y) < CORRECTED_RESIDUAL && within_bounds(problem, p) {
             break;
         }
         let chord = Terminal {
@@ -468,14 +502,32 @@ fn correct(
             &zeros,
             CORRECTION_WEIGHT,
             path,
+            outside.as_deref(),
             qp_iterations,
         ) else {
             break;
         };
         let candidate = problem.moved(p, &step.dp);
+        if !within_bounds(problem, &candidate) && outside.is_none() {
+            outside = Some(candidate);
+            continue;
+        }
+        outside = None;
+        // A correction may not take p out of its bounds (its rows are at p,
+        // and the extrema move with the step); one that takes it back in
+        // may leave a residual up to the iteration's tolerance, which the
+        // next corrections reduce.
+        let (inside, lands_inside) = (
+            within_bounds(problem, p),
+            within_bounds(problem, &candidate),
+        );
         match problem.shoot(&candidate) {
             Ok(next)
-                if size(&next.y) < size(&shot.y) && next.path <= shot.path.max(PATH_TOLERANCE) =>
+                if next.path <= shot.path.max(PATH_TOLERANCE)
+                    && ((size(&next.y) < size(&shot.y) && (lands_inside || !inside))
+                        || (lands_inside
+                            && !inside
+                            && size(&next.y) <= size(&shot.y).max(RESIDUAL_TOLERANCE))) =>
             {
                 *p = candidate;
                 shot = next;
@@ -526,6 +578,7 @@ fn judge(
         &zeros,
         CORRECTION_WEIGHT,
         &[],
+        None,
         qp_iterations,
     ) else {
         return (candidate, actual, Some(shot));

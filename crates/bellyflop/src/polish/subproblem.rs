@@ -1,4 +1,5 @@
-//! One convex subproblem of the polish, solved by Clarabel (a QP).
+//! One convex subproblem of the polish, a QP solved by our dense interior
+//! point ([`crate::polish::qp`]).
 //!
 //! In the scaled step Δp̂ (p = p_ref + S·Δp̂, S = [`Scales`]) and the
 //! terminal slacks ν⁺, ν⁻ ≥ 0:
@@ -15,10 +16,8 @@
 //! there (the gimbal rate, linear in (δ's coefficients, d_j)), δ continuous
 //! across segments and δ(0) = δ_0, and every duration within its bounds.
 
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
-
 use crate::flown::{critical_points, legendre, legendre_slope};
+use crate::polish::qp::Row;
 use crate::polish::shooting::{Layout, NC};
 use crate::problem::dynamics::Model;
 
@@ -72,7 +71,7 @@ pub struct Rows {
 
 /// How far inside its bounds a control is held, as a fraction of the
 /// bound's scale (T_max − T_min, δ_max, χ_max): a QP solution meets its
-/// rows only to Clarabel's tolerances, so the rows stand this far inside
+/// rows only to its solver's tolerances, so the rows stand this far inside
 /// and the answer is within its bounds to rounding. (At 1e-7, χ ended
 /// 1e-7 to 3.4e-7 of χ_max beyond it on 3 of 300 seeded states,
 /// `bench/safety.py`; at 1e-6, on none.)
@@ -89,22 +88,47 @@ pub fn linear_rows(
     p: &[f64],
     delta0: f64,
 ) -> Rows {
+    bound_rows(layout, model, scales, p, delta0, BOUND_MARGIN, None)
+}
+
+/// [`linear_rows`] with the bounds `margin` inside (0: the bounds
+/// themselves), and with rows also at the interior extrema of the
+/// polynomials of `also` (a step from p whose extrema moved).
+pub fn bound_rows(
+    layout: &Layout,
+    model: &Model,
+    scales: &Scales,
+    p: &[f64],
+    delta0: f64,
+    margin: f64,
+    also: Option<&[f64]>,
+) -> Rows {
     let sc = &scales.0;
+    // The interior extrema of the polynomial at `at`, of p and of `also`.
+    let extrema = |at: usize| {
+        let (mut values, mut slopes) = (Vec::new(), Vec::new());
+        for q in std::iter::once(p).chain(also) {
+            let (v, r) = critical_points(&q[at..at + NC]);
+            values.extend(v);
+            slopes.push(r);
+        }
+        (values, slopes)
+    };
     let mut rows = Rows::default();
     let poly = |at: usize, basis: &[f64; NC]| -> (Vec<(usize, f64)>, f64) {
         let terms = (0..NC).map(|k| (at + k, basis[k] * sc[at + k])).collect();
         let value = (0..NC).map(|k| basis[k] * p[at + k]).sum();
         (terms, value)
     };
-    let dmax = model.max_gimbal_rad * (1.0 - BOUND_MARGIN);
-    let chimax = model.max_gimbal_rate_radps * (1.0 - BOUND_MARGIN);
-    let margin_t = BOUND_MARGIN * (model.max_thrust_n - model.min_thrust_n);
+    let dmax = model.max_gimbal_rad * (1.0 - margin);
+    let chimax = model.max_gimbal_rate_radps * (1.0 - margin);
+    let margin_t = margin * (model.max_thrust_n - model.min_thrust_n);
     let (tlo, thi) = (model.min_thrust_n + margin_t, model.max_thrust_n - margin_t);
     let last = layout.segments.len() - 1;
     let grid = (0..GRID).map(|g| g as f64 / (GRID - 1) as f64);
     for (j, seg) in layout.segments.iter().enumerate() {
         let (dj, aj) = (layout.duration(j), layout.delta(j));
-        let (delta_extrema, rate_extremum) = critical_points(&p[aj..aj + NC]);
+        let (delta_extrema, rate_extrema) = extrema(aj);
         // δ(0) of the first segment is δ_0, fixed by an equality.
         let first = usize::from(j == 0);
         for s in grid.clone().skip(first).chain(delta_extrema) {
@@ -114,7 +138,7 @@ pub fn linear_rows(
                 rows.le.push((negate(&terms), dmax + v));
             }
         }
-        for s in grid.clone().chain([rate_extremum]) {
+        for s in grid.clone().chain(rate_extrema) {
             if !s.is_finite() {
                 continue;
             }
@@ -128,7 +152,7 @@ pub fn linear_rows(
             rows.le.push((neg, chimax * d + v));
         }
         if let Some(at) = layout.thrust(j) {
-            let (thrust_extrema, _) = critical_points(&p[at..at + NC]);
+            let (thrust_extrema, _) = extrema(at);
             for s in grid.clone().chain(thrust_extrema) {
                 if s.is_finite() {
                     let (terms, v) = poly(at, &legendre(s));
@@ -189,32 +213,19 @@ pub struct Step {
     pub iterations: u32,
 }
 
-/// Solve one QP with Clarabel. An error names Clarabel's status.
+/// Solve one QP with the dense interior point ([`crate::polish::qp`]).
+/// An error says why it failed.
 pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
     let with_terminal = qp.terminal.is_some();
     let path_slack = n + if with_terminal { 12 } else { 0 };
     let nv = path_slack + usize::from(!qp.path.is_empty());
-    // Objective.
     let mut q = vec![SLACK_WEIGHT; nv];
     for (q, g) in q.iter_mut().zip(qp.mass_gradient).take(n) {
         *q = if with_terminal { -g } else { 0.0 };
     }
-    let p = objective_matrix(qp, n, nv);
-    // Constraints: zero cone first, then the nonnegative cone.
-    let (mut ar, mut ac, mut av, mut b) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let mut row = 0;
-    let mut put = |terms: &[(usize, f64)], rhs: f64, row: &mut usize| {
-        for &(c, v) in terms {
-            ar.push(*row);
-            ac.push(c);
-            av.push(v);
-        }
-        b.push(rhs);
-        *row += 1;
-    };
-    for (terms, rhs) in &qp.rows.eq {
-        put(terms, *rhs, &mut row);
-    }
+    let mut diagonal = vec![0.0; nv];
+    diagonal[..n].fill(qp.proximal_weight);
+    let mut eq: Vec<Row> = qp.rows.eq.clone();
     if let Some(t) = qp.terminal {
         for i in 0..6 {
             let mut terms: Vec<(usize, f64)> = t.jacobian[i]
@@ -225,77 +236,43 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
                 .collect();
             terms.push((n + i, -1.0));
             terms.push((n + 6 + i, 1.0));
-            put(&terms, -t.residual[i], &mut row);
+            eq.push((terms, -t.residual[i]));
         }
     }
-    let n_eq = row;
     // A row that no step within the trust box can reach is left out: it
     // changes nothing in the answer, and most of the grid's rows are far
     // from their bounds (Σ|a_i|·Δ < b: the row holds on the whole box).
-    for (terms, rhs) in &qp.rows.le {
-        let reach: f64 = terms.iter().map(|(_, v)| v.abs()).sum::<f64>() * qp.trust_radius;
-        if reach >= *rhs {
-            put(terms, *rhs, &mut row);
-        }
-    }
+    let mut le: Vec<Row> = qp
+        .rows
+        .le
+        .iter()
+        .filter(|(terms, rhs)| {
+            terms.iter().map(|(_, v)| v.abs()).sum::<f64>() * qp.trust_radius >= *rhs
+        })
+        .cloned()
+        .collect();
     for (terms, rhs) in qp.path {
         let mut terms = terms.clone();
         terms.push((path_slack, -1.0));
-        put(&terms, *rhs, &mut row);
+        le.push((terms, *rhs));
     }
     for i in 0..n {
-        put(&[(i, 1.0)], qp.trust_radius, &mut row);
-        put(&[(i, -1.0)], qp.trust_radius, &mut row);
+        le.push((vec![(i, 1.0)], qp.trust_radius));
+        le.push((vec![(i, -1.0)], qp.trust_radius));
     }
     for i in n..nv {
-        put(&[(i, -1.0)], 0.0, &mut row);
+        le.push((vec![(i, -1.0)], 0.0));
     }
-    let a = CscMatrix::new_from_triplets(row, nv, ar, ac, av);
-    let cones = [
-        SupportedConeT::ZeroConeT(n_eq),
-        SupportedConeT::NonnegativeConeT(row - n_eq),
-    ];
-    // Fewer and looser refinement steps of the KKT solves than Clarabel's
-    // defaults (10 steps to 1e-13): the step is judged by the shot itself,
-    // and refinement was a quarter of the polish's time. On 5 states
-    // (valgrind --tool=callgrind, whole `bellyflop solve`): 8.5 % fewer
-    // instructions, the same final masses to 0.6 kg.
-    let settings = DefaultSettings {
-        verbose: false,
-        iterative_refinement_reltol: 1e-10,
-        iterative_refinement_abstol: 1e-10,
-        iterative_refinement_max_iter: 3,
-        ..DefaultSettings::default()
-    };
-    let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings)
-        .map_err(|e| format!("Clarabel setup failed: {e}"))?;
-    solver.solve();
-    let sol = &solver.solution;
-    match sol.status {
-        // Insufficient progress still leaves Clarabel's best iterate; the
-        // caller judges every step by the shot itself (the ratio test, or
-        // the residual for the projection and the corrections).
-        SolverStatus::Solved | SolverStatus::AlmostSolved | SolverStatus::InsufficientProgress
-            if sol.x.iter().all(|v| v.is_finite()) =>
-        {
-            Ok(Step {
-                dp: sol.x[..n].to_vec(),
-                slack: sol.x[n..path_slack].iter().sum(),
-                iterations: sol.iterations,
-            })
-        }
-        other => Err(format!("Clarabel status {other:?}")),
-    }
-}
-
-/// ½·ε·‖Δp̂‖² in Clarabel's CSC form (zero on the slacks).
-fn objective_matrix(qp: &Qp, n: usize, nv: usize) -> CscMatrix<f64> {
-    let diagonal: Vec<usize> = (0..n).collect();
-    CscMatrix::new_from_triplets(
-        nv,
-        nv,
-        diagonal.clone(),
-        diagonal,
-        vec![qp.proximal_weight; n],
-    )
+    let answer = crate::polish::qp::solve(&crate::polish::qp::Problem {
+        p: &diagonal,
+        q: &q,
+        eq: &eq,
+        le: &le,
+    })
+    .map_err(|e| e.to_string())?;
+    Ok(Step {
+        slack: answer.x[n..path_slack].iter().sum(),
+        dp: answer.x[..n].to_vec(),
+        iterations: answer.iterations,
+    })
 }
