@@ -92,7 +92,7 @@ const GIMBAL: Range = Range::open(-90.0, 90.0, "deg");
 /// LGR collocation points N: at least 4 so the polynomial can represent the
 /// flip (the paper uses 20), at most 200 over several intervals (a refined
 /// mesh, or a fine reference such as 20 × 8; each interval is at most
-/// [`INTERVAL_POINTS`]).
+/// `INTERVAL_POINTS`).
 pub const NODES: (usize, usize) = (4, 200);
 /// N of the global mesh (one interval): at most 100, beyond which its dense
 /// differentiation matrix is ill-conditioned and the subproblem is large.
