@@ -834,6 +834,14 @@ fn campaign_table(
     Ok(CampaignTable { rows: out, summary })
 }
 
+/// What [`campaign_account`] hands back: the unique rows, the missing runs,
+/// the conflict's message and the missing runs' message.
+type Accounting<'py> = (Bound<'py, PyList>, Vec<u64>, Option<String>, Option<String>);
+
+/// A CampaignTable's pickle: its constructor, and the rows, the touchdown
+/// limits and the summary (JSON text).
+type TableReduce<'py> = (Bound<'py, PyAny>, (Bound<'py, PyList>, String, String));
+
 /// Account for the rows of a campaign of `runs` runs that came back so far
 /// (`bellyflop::output::campaign::account`): `(rows, missing, conflict,
 /// missing_message)`: the unique rows in run order (tuples), the runs not
@@ -846,7 +854,7 @@ fn campaign_account<'py>(
     rows: &Bound<'py, PyAny>,
     runs: u64,
     config: &SimConfig,
-) -> PyResult<(Bound<'py, PyList>, Vec<u64>, Option<String>, Option<String>)> {
+) -> PyResult<Accounting<'py>> {
     let rows = rows_from_py(rows, config.inner.touchdown)?;
     let (unique, missing, conflict) = match campaign::account(rows, runs) {
         Ok(a) => (a.rows, a.missing, None),
@@ -945,10 +953,7 @@ impl CampaignTable {
         })
     }
 
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyList>, String, String))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<TableReduce<'py>> {
         let ctor = py.get_type::<CampaignTable>().getattr("_from_state")?;
         let rows = self
             .rows
