@@ -9,3 +9,9 @@ pub const BAD_INPUT: u8 = 2;
 pub const NO_TOUCHDOWN: u8 = 7;
 /// `sim`: a touchdown beyond the survivable limits (`crash`).
 pub const CRASH: u8 = 8;
+/// `montecarlo`: interrupted by SIGINT (Ctrl-C) after writing the runs that
+/// finished (128 + SIGINT, as a shell reports it).
+pub const INTERRUPTED: u8 = 130;
+/// stdout closed by its reader (128 + SIGPIPE, as a shell reports a writer
+/// ended by the signal); nothing is printed.
+pub const BROKEN_PIPE: u8 = 141;

@@ -30,11 +30,11 @@ pub struct InitArgs {
 pub fn run(args: &InitArgs) -> ExitCode {
     let text = template(&Case::paper());
     let Some(path) = &args.file else {
-        print!("{text}");
+        out!("{text}");
         return ExitCode::SUCCESS;
     };
     if path.exists() && !args.force {
-        eprintln!(
+        errln!(
             "error: {} exists; pass --force to overwrite it",
             path.display()
         );
@@ -42,7 +42,7 @@ pub fn run(args: &InitArgs) -> ExitCode {
     }
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         if !dir.is_dir() {
-            eprintln!(
+            errln!(
                 "error: cannot write {}: the directory {} does not exist (create it first)",
                 path.display(),
                 dir.display()
@@ -50,14 +50,14 @@ pub fn run(args: &InitArgs) -> ExitCode {
             return ExitCode::from(exit::BAD_INPUT);
         }
     }
-    match std::fs::write(path, text) {
+    match crate::files::write_file(path, text) {
         Ok(()) => {
-            eprintln!("wrote {}", path.display());
+            errln!("wrote {}", path.display());
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("error: {}: {e}", path.display());
-            ExitCode::from(1)
+            errln!("error: {e}");
+            ExitCode::from(exit::OUTPUT)
         }
     }
 }

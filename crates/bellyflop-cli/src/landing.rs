@@ -41,7 +41,7 @@ pub fn print_summary(p: &Result<Propagation, IntegrationError>, optimized_mass_k
     match p {
         Ok(p) => {
             let e = &p.landing_error;
-            println!(
+            outln!(
                 "landing error position {:.4} m, velocity {:.4} m/s, pitch {:.4} deg, rate {:.4} deg/s",
                 e.position_m,
                 e.velocity_mps,
@@ -58,7 +58,7 @@ pub fn print_summary(p: &Result<Propagation, IntegrationError>, optimized_mass_k
                 }
                 _ => format!("{} controls", o.interpolation.as_str()),
             };
-            println!(
+            outln!(
                 "              re-propagated (DOP853, tolerance {:.0e}, {controls}): terminal mass {:.1} kg ({:+.3} kg against {:.1} kg)",
                 o.integrator.rtol,
                 p.terminal_mass_kg,
@@ -66,7 +66,7 @@ pub fn print_summary(p: &Result<Propagation, IntegrationError>, optimized_mass_k
                 optimized_mass_kg
             );
         }
-        Err(e) => println!("landing error unavailable: {e}"),
+        Err(e) => outln!("landing error unavailable: {e}"),
     }
 }
 

@@ -69,6 +69,6 @@ pub fn add_warnings(v: &mut serde_json::Value, warnings: &[String]) {
 /// that of another file than the one given.
 fn warn(case: &Case) {
     for w in &case.warnings {
-        eprintln!("warning: {w}");
+        errln!("warning: {w}");
     }
 }

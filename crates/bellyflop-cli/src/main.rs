@@ -1,7 +1,10 @@
 //! `bellyflop`: solve flip-and-land trajectories from the shell.
 //!
 //! The modules, in dependency order (each uses only those above it):
-//! `exit` (exit codes), `error` (why writing failed), `landing` (the landing
+//! `exit` (exit codes), `console` (stdout and stderr without a panic: its
+//! macros `outln!`, `out!` and `errln!` replace `println!`, `print!` and
+//! `eprintln!`), `error` (why writing failed), `files` (files
+//! written whole or not at all), `landing` (the landing
 //! check), `args` and `load` (the flags and the scenario they select),
 //! `sample` (the dense trajectory), `plot` (every figure), `output` (the
 //! files of `solve --out`), then one module per command.
@@ -10,9 +13,12 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod exit;
+#[macro_use]
+mod console;
 mod args;
 mod error;
-mod exit;
+mod files;
 mod init;
 mod landing;
 mod load;
@@ -64,11 +70,15 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match cli.command.unwrap_or(Command::Solve(SolveArgs::default())) {
+    let code = match cli.command.unwrap_or(Command::Solve(SolveArgs::default())) {
         Command::Solve(args) => solve::run(args),
         Command::Init(args) => init::run(&args),
         Command::Sweep(args) => sweep::run(&args),
         Command::Sim(args) => sim::run(&args),
         Command::Montecarlo(args) => montecarlo::run(&args),
-    }
+    };
+    // What stdout still holds, written now so that a failure is reported
+    // (the flush at exit would drop it silently).
+    console::flush();
+    code
 }

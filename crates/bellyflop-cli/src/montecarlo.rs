@@ -5,12 +5,21 @@
 //! gives the same results whatever the thread count: re-plan deadlines are
 //! iteration budgets, not clock readings (re-plans slower than the period on
 //! the clock are counted as `late` but do not change the flight).
+//!
+//! Every run is accounted for (`bellyflop::output::campaign::account`):
+//! each index in 0..runs comes back exactly once, or the command says which
+//! did not. Ctrl-C (SIGINT) stops starting runs: the runs that finished are
+//! summarized and written (`summary.json` says `"partial": true`) and the
+//! command exits 130; a second Ctrl-C ends it at once.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use bellyflop::output::campaign::{fly_row, runs_csv, summary, RunRow};
+use bellyflop::guidance::SimConfig;
+use bellyflop::input::validate::{RUNS, THREADS};
+use bellyflop::output::campaign::{account, fly_row, runs_csv, summary, RunRow};
 use bellyflop::sim::{RunOutcome, TouchdownLimits};
 use bellyflop::Case;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -18,7 +27,7 @@ use rayon::prelude::*;
 use serde_json::Value;
 
 use crate::error::OutputError;
-use crate::{exit, load, output, plot};
+use crate::{exit, files, load, output, plot};
 
 #[derive(clap::Args)]
 pub struct MonteCarloArgs {
@@ -28,9 +37,9 @@ pub struct MonteCarloArgs {
     /// Campaign seed.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Worker threads (0: one per core).
+    /// Worker threads (0: one per core); at most one per run is started.
     #[arg(long, default_value_t = 0)]
-    threads: usize,
+    threads: u64,
     /// Scenario TOML file; the paper's case when omitted.
     #[arg(long)]
     scenario: Option<PathBuf>,
@@ -54,65 +63,85 @@ pub struct MonteCarloArgs {
     out: Option<PathBuf>,
 }
 
+/// Set by SIGINT while a campaign flies.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_sigint(_: libc::c_int) {
+    INTERRUPTED.store(true, Ordering::SeqCst);
+    // A second Ctrl-C ends the process at once. SAFETY: signal(2) is
+    // async-signal-safe.
+    unsafe {
+        libc::signal(libc::SIGINT, libc::SIG_DFL);
+    }
+}
+
+/// From here on, SIGINT sets [`INTERRUPTED`] instead of ending the process.
+fn catch_sigint() {
+    let handler: extern "C" fn(libc::c_int) = on_sigint;
+    // SAFETY: the handler only stores to an atomic and calls signal(2),
+    // both async-signal-safe.
+    unsafe {
+        libc::signal(libc::SIGINT, handler as libc::sighandler_t);
+    }
+}
+
+/// The threads to start for `runs` runs when `asked` (0: one per core):
+/// never more than the runs, and a warning when more than the cores.
+fn thread_count(asked: u64, runs: u64) -> (usize, Option<String>) {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get()) as u64;
+    let want = if asked == 0 { cores } else { asked };
+    let warning = (asked > cores).then(|| {
+        format!(
+            "--threads {asked} is more than this machine's {cores} cores: the runs share them, which only adds overhead"
+        )
+    });
+    (want.min(runs).max(1) as usize, warning)
+}
+
+/// A count argument outside its range (from `bellyflop::input::validate`).
+fn check_count(flag: &str, value: u64, (lo, hi): (u64, u64)) -> Result<(), String> {
+    if (lo..=hi).contains(&value) {
+        Ok(())
+    } else {
+        Err(format!(
+            "{flag} = {value} is out of range: allowed {lo} to {hi}"
+        ))
+    }
+}
+
 pub fn run(args: &MonteCarloArgs) -> ExitCode {
     let (scenario, config) =
         match load::closed_loop(&args.scenario, &args.config, args.open_loop, false) {
             Ok(v) => v,
             Err(e) => {
-                eprintln!("error: {e}");
+                errln!("error: {e}");
                 return ExitCode::from(exit::BAD_INPUT);
             }
         };
-    if args.runs == 0 || args.runs > 1_000_000 {
-        eprintln!(
-            "error: --runs = {} is out of range: allowed 1 to 1000000",
-            args.runs
-        );
+    let counts = check_count("--runs", args.runs, RUNS)
+        .and_then(|()| check_count("--threads", args.threads, THREADS));
+    if let Err(e) = counts {
+        errln!("error: {e}");
         return ExitCode::from(exit::BAD_INPUT);
     }
     if let Err(code) = output::prepare_or_exit(&args.out) {
         return code;
     }
-    let pool = match rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads)
-        .build()
-    {
+    let (threads, warning) = thread_count(args.threads, args.runs);
+    if let Some(w) = warning {
+        errln!("warning: {w}");
+    }
+    let pool = match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
         Ok(p) => p,
         Err(e) => {
-            eprintln!("error: --threads {}: {e}", args.threads);
+            errln!("error: --threads {}: {e}", args.threads);
             return ExitCode::from(exit::BAD_INPUT);
         }
     };
-    let threads = pool.current_num_threads();
-    let bar = if args.quiet || args.json {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(args.runs)
-    };
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} landings (eta {eta})",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
     let start = Instant::now();
-    let rows: Result<Vec<RunRow>, bellyflop::InputError> = pool.install(|| {
-        (0..args.runs)
-            .into_par_iter()
-            .map(|k| {
-                let row = fly_row(&scenario, &config, args.seed, k)?;
-                bar.inc(1);
-                Ok(row)
-            })
-            .collect()
-    });
-    bar.finish_and_clear();
-    let rows = match rows {
-        Ok(r) => r,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(exit::BAD_INPUT);
-        }
+    let (rows, interrupted) = match fly_all(args, &scenario, &config, &pool) {
+        Ok(v) => v,
+        Err(code) => return code,
     };
     let wall_s = start.elapsed().as_secs_f64();
     let mut s = summary(
@@ -123,9 +152,13 @@ pub fn run(args: &MonteCarloArgs) -> ExitCode {
         wall_s,
         args.open_loop,
     );
+    if interrupted {
+        s["partial"] = true.into();
+        s["requested_runs"] = args.runs.into();
+    }
     load::add_warnings(&mut s, &scenario.warnings);
     if args.json {
-        println!("{s}");
+        outln!("{s}");
     } else {
         print_summary(&s);
     }
@@ -140,12 +173,80 @@ pub fn run(args: &MonteCarloArgs) -> ExitCode {
             return code;
         }
     }
+    if interrupted {
+        errln!(
+            "interrupted: {} of {} runs finished{}",
+            rows.len(),
+            args.runs,
+            if args.out.is_some() {
+                " and were written (summary.json: \"partial\": true)"
+            } else {
+                ""
+            }
+        );
+        return ExitCode::from(exit::INTERRUPTED);
+    }
     ExitCode::SUCCESS
+}
+
+/// Fly every run on `pool` with a progress bar: one row per run in run
+/// order, accounted for (`bellyflop::output::campaign::account`), and
+/// whether Ctrl-C stopped the campaign (then the rows are those that
+/// finished). On an error, print it and return the exit code.
+fn fly_all(
+    args: &MonteCarloArgs,
+    scenario: &Case,
+    config: &SimConfig,
+    pool: &rayon::ThreadPool,
+) -> Result<(Vec<RunRow>, bool), ExitCode> {
+    let bar = if args.quiet || args.json {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(args.runs)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} landings (eta {eta})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    catch_sigint();
+    let rows: Result<Vec<Option<RunRow>>, bellyflop::InputError> = pool.install(|| {
+        (0..args.runs)
+            .into_par_iter()
+            .map(|k| {
+                // After Ctrl-C, no run starts; those in flight finish.
+                if INTERRUPTED.load(Ordering::SeqCst) {
+                    return Ok(None);
+                }
+                let row = fly_row(scenario, config, args.seed, k)?;
+                bar.inc(1);
+                Ok(Some(row))
+            })
+            .collect()
+    });
+    bar.finish_and_clear();
+    let interrupted = INTERRUPTED.load(Ordering::SeqCst);
+    let rows = rows.map_err(|e| {
+        errln!("error: {e}");
+        ExitCode::from(exit::BAD_INPUT)
+    })?;
+    // Interrupted, the runs that finished; else every run, or an error.
+    let accounted = account(rows.into_iter().flatten(), args.runs);
+    let rows = match accounted {
+        Ok(a) if interrupted => Ok(a.rows),
+        Ok(a) => a.complete(args.runs),
+        Err(e) => Err(e),
+    };
+    rows.map(|r| (r, interrupted)).map_err(|e| {
+        errln!("error: {e}");
+        ExitCode::from(exit::OUTPUT)
+    })
 }
 
 fn print_summary(s: &Value) {
     let f = |v: &Value| v.as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
-    println!(
+    outln!(
         "campaign      {} runs, seed {}, {} threads, {}, {:.1} s",
         s["runs"],
         s["seed"],
@@ -158,7 +259,7 @@ fn print_summary(s: &Value) {
         s["wall_time_s"].as_f64().unwrap_or(0.0)
     );
     let spec = &s["spec"];
-    println!(
+    outln!(
         "touchdowns    {} of {} ({} failures); within spec (|x| <= {} m, speed <= {} m/s, |pitch| <= {} deg): {} ({:.1} %)",
         s["runs"].as_u64().unwrap_or(0) - s["failures"].as_u64().unwrap_or(0),
         s["runs"],
@@ -173,12 +274,12 @@ fn print_summary(s: &Value) {
         .iter()
         .map(|o| format!("{} {}", o.as_str(), s["outcomes"][o.as_str()]))
         .collect();
-    println!("outcomes      {}", outcomes.join(", "));
-    println!(
+    outln!("outcomes      {}", outcomes.join(", "));
+    outln!(
         "re-plans      {} ({} failed, {} missed the deadline (iteration budget), {} flown unconverged at the budget, {} slower than the period on the clock)",
         s["replans"], s["failed_replans"], s["missed_replans"], s["usable_replans"], s["late_replans"]
     );
-    println!("                              p50        p95        p99        max");
+    outln!("                              p50        p95        p99        max");
     for (key, label) in [
         ("touchdown_position_m", "position error [m]"),
         ("touchdown_speed_mps", "speed [m/s]"),
@@ -189,7 +290,7 @@ fn print_summary(s: &Value) {
         ("replan_time_ms", "re-plan time [ms]"),
     ] {
         let p = &s[key];
-        println!(
+        outln!(
             "{label:<26}{:>10} {:>10} {:>10} {:>10}",
             f(&p["p50"]),
             f(&p["p95"]),
@@ -198,7 +299,7 @@ fn print_summary(s: &Value) {
         );
     }
     let w = &s["worst"];
-    println!(
+    outln!(
         "worst run     {}: {}, x {} m, speed {} m/s, pitch {} deg",
         w["run"],
         w["outcome"].as_str().unwrap_or("-"),
@@ -248,10 +349,10 @@ fn write(
     let mut files = Vec::new();
     let csv = runs_csv(rows);
     let path = dir.join("runs.csv");
-    std::fs::write(&path, csv).map_err(|e| OutputError::io(&path, e))?;
+    files::write_file(&path, csv)?;
     files.push(path);
     let path = dir.join("summary.json");
-    std::fs::write(&path, format!("{s}\n")).map_err(|e| OutputError::io(&path, e))?;
+    files::write_file(&path, format!("{s}\n"))?;
     files.push(path);
     files.extend(plot::campaign(dir, rows, &case.scenario.name)?);
     let data = bellyflop::output::viewer::campaign_data(rows, s, limits, sim);

@@ -9,6 +9,7 @@ use bellyflop::verify::propagate::Propagation;
 use bellyflop::{Scenario, Solution, SolverSettings};
 
 use crate::error::OutputError;
+use crate::files;
 use crate::sample::{Dense, COLUMNS};
 use crate::{exit, plot};
 
@@ -44,7 +45,7 @@ pub fn write_and_report(
 pub fn write_viewer(dir: &Path, data: &serde_json::Value) -> Result<PathBuf, OutputError> {
     let path = dir.join("viewer.html");
     let page = viewer::html(&data.to_string()).map_err(|e| OutputError::io(&path, e))?;
-    std::fs::write(&path, page).map_err(|e| OutputError::io(&path, e))?;
+    files::write_file(&path, page)?;
     Ok(path)
 }
 
@@ -62,12 +63,12 @@ pub fn report(
                     .iter()
                     .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
                     .collect();
-                eprintln!("wrote {}: {}", dir.display(), names.join(", "));
+                errln!("wrote {}: {}", dir.display(), names.join(", "));
             }
             Ok(())
         }
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             Err(std::process::ExitCode::from(exit::OUTPUT))
         }
     }
@@ -78,7 +79,7 @@ pub fn report(
 pub fn prepare_or_exit(dir: &Option<PathBuf>) -> Result<(), std::process::ExitCode> {
     if let Some(dir) = dir {
         if let Err(e) = prepare(dir) {
-            eprintln!("error: --out {e}");
+            errln!("error: --out {e}");
             return Err(std::process::ExitCode::from(exit::BAD_INPUT));
         }
     }
@@ -114,11 +115,11 @@ pub fn write_all(
     let mut written = Vec::new();
 
     let csv = dir.join("trajectory.csv");
-    std::fs::write(&csv, trajectory_csv(&dense)).map_err(|e| OutputError::io(&csv, e))?;
+    files::write_file(&csv, trajectory_csv(&dense))?;
     written.push(csv);
 
     let json_path = dir.join("solution.json");
-    std::fs::write(&json_path, format!("{json}\n")).map_err(|e| OutputError::io(&json_path, e))?;
+    files::write_file(&json_path, format!("{json}\n"))?;
     written.push(json_path);
 
     let data = plot::PlotData::new(scenario, settings, solution, &dense, overlay);

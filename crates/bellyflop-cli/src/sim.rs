@@ -11,7 +11,7 @@ use serde_json::Value;
 
 use crate::error::OutputError;
 use crate::sample::Dense;
-use crate::{exit, load, output, plot};
+use crate::{exit, files, load, output, plot};
 
 #[derive(clap::Args, Default)]
 pub struct SimArgs {
@@ -56,7 +56,7 @@ pub fn run(args: &SimArgs) -> ExitCode {
     ) {
         Ok(v) => v,
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             return ExitCode::from(exit::BAD_INPUT);
         }
     };
@@ -66,7 +66,7 @@ pub fn run(args: &SimArgs) -> ExitCode {
     let flight = match config.fly(&scenario, args.seed, args.run, args.out.is_some()) {
         Ok(f) => f,
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             return ExitCode::from(exit::BAD_INPUT);
         }
     };
@@ -74,7 +74,7 @@ pub fn run(args: &SimArgs) -> ExitCode {
     let mut v = flight_json(&flight, outcome, args.seed, args.run, &config);
     load::add_warnings(&mut v, &scenario.warnings);
     if args.json {
-        println!("{v}");
+        outln!("{v}");
     } else {
         print_summary(&flight, outcome, args.seed, args.run);
     }
@@ -99,8 +99,8 @@ pub fn exit_code(o: RunOutcome) -> u8 {
 }
 
 fn print_summary(f: &Flight, outcome: RunOutcome, seed: u64, run: u64) {
-    println!("run           seed {seed}, run {run}");
-    println!(
+    outln!("run           seed {seed}, run {run}");
+    outln!(
         "first plan    {}{}, t_f {:.3} s, {} iterations",
         f.first_plan.status.as_str(),
         if f.first_plan_nominal {
@@ -111,27 +111,30 @@ fn print_summary(f: &Flight, outcome: RunOutcome, seed: u64, run: u64) {
         f.first_plan.tf_s,
         f.first_plan.iterations
     );
-    println!("outcome       {}", outcome.as_str());
+    outln!("outcome       {}", outcome.as_str());
     if let Outcome::Touchdown(td) = &f.outcome {
-        println!("touchdown     t = {:.3} s", td.time_s);
-        println!("  position    {:+.3} m", td.x_error_m);
-        println!(
+        outln!("touchdown     t = {:.3} s", td.time_s);
+        outln!("  position    {:+.3} m", td.x_error_m);
+        outln!(
             "  velocity    vertical {:+.3} m/s, horizontal {:+.3} m/s (speed {:.3} m/s)",
-            td.vertical_velocity_mps, td.horizontal_velocity_mps, td.speed_mps
+            td.vertical_velocity_mps,
+            td.horizontal_velocity_mps,
+            td.speed_mps
         );
-        println!(
+        outln!(
             "  attitude    pitch {:+.3} deg, pitch rate {:+.3} deg/s",
-            td.pitch_error_deg, td.pitch_rate_degps
+            td.pitch_error_deg,
+            td.pitch_rate_degps
         );
-        println!("  propellant  {:.1} kg left", td.propellant_left_kg);
+        outln!("  propellant  {:.1} kg left", td.propellant_left_kg);
     } else {
         let s = end_state(&f.outcome);
-        println!("  ended at    x {:.2} m, z {:.2} m", s.x_m, s.z_m);
+        outln!("  ended at    x {:.2} m, z {:.2} m", s.x_m, s.z_m);
     }
-    println!("fuel          {:.1} kg", f.fuel_kg());
+    outln!("fuel          {:.1} kg", f.fuel_kg());
     let times: Vec<f64> = f.replans.iter().map(|r| r.solve_ms).collect();
     let max = times.iter().copied().fold(0.0, f64::max);
-    println!(
+    outln!(
         "re-plans      {} ({} solved, {} flown unconverged at the budget, {} failed, {} missed the deadline), slowest {:.1} ms ({} slower than the period)",
         f.replans.len(),
         f.count(ReplanOutcome::Accepted),
@@ -143,9 +146,14 @@ fn print_summary(f: &Flight, outcome: RunOutcome, seed: u64, run: u64) {
     );
     for r in &f.replans {
         if matches!(r.outcome, ReplanOutcome::Failed | ReplanOutcome::Missed) {
-            println!(
+            outln!(
                 "  t = {:6.2} s  {:?}: {} after {} iterations, {:.1} ms. {}",
-                r.time_s, r.outcome, r.status, r.iterations, r.solve_ms, r.reason
+                r.time_s,
+                r.outcome,
+                r.status,
+                r.iterations,
+                r.solve_ms,
+                r.reason
             );
         }
     }
@@ -181,7 +189,7 @@ fn write(
 
     let csv = bellyflop::output::report::trace_csv(f);
     let path = dir.join("flight.csv");
-    std::fs::write(&path, csv).map_err(|e| OutputError::io(&path, e))?;
+    files::write_file(&path, csv)?;
     files.push(path);
 
     let mut csv = String::from(
@@ -205,11 +213,11 @@ fn write(
         );
     }
     let path = dir.join("replans.csv");
-    std::fs::write(&path, csv).map_err(|e| OutputError::io(&path, e))?;
+    files::write_file(&path, csv)?;
     files.push(path);
 
     let path = dir.join("flight.json");
-    std::fs::write(&path, format!("{v}\n")).map_err(|e| OutputError::io(&path, e))?;
+    files::write_file(&path, format!("{v}\n"))?;
     files.push(path);
 
     files.extend(plot::timeline(dir, f)?);

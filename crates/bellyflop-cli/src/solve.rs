@@ -17,7 +17,7 @@ pub fn run(args: SolveArgs) -> ExitCode {
     } = match load::case(&args) {
         Ok(c) => c,
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             return ExitCode::from(exit::BAD_INPUT);
         }
     };
@@ -39,7 +39,7 @@ pub fn run(args: SolveArgs) -> ExitCode {
     bellyflop::output::report::add_mesh_json(&mut v, &scenario, &solution);
     load::add_warnings(&mut v, &warnings);
     if args.json {
-        println!("{v}");
+        outln!("{v}");
     } else {
         print_summary(&scenario, &settings, &solution, &times_ms);
         landing::print_summary(&propagation, solution.final_mass_kg);
@@ -71,7 +71,7 @@ fn solve_repeated(
     for _ in 1..repeat {
         let again = bellyflop::solve(scenario, settings, &mut Progress { quiet: true });
         if again.status != solution.status || again.final_mass_kg != solution.final_mass_kg {
-            eprintln!(
+            errln!(
                 "warning: a repeated solve differed: {} at {} kg, then {} at {} kg",
                 solution.status.as_str(),
                 solution.final_mass_kg,
@@ -103,7 +103,7 @@ impl bellyflop::Observer for Progress {
 
     fn pass(&mut self, p: &bellyflop::solution::Pass) {
         if !self.quiet {
-            eprintln!(
+            errln!(
                 "pass {:>2}  N {:>3} over {:>2} intervals  {:<9}  {:>3} iterations  {:>7.2} ms  m_f {:>10.2} kg  max error {:>8.1e}  events at {}",
                 p.pass,
                 p.nodes,
@@ -130,7 +130,7 @@ impl bellyflop::Observer for Progress {
 impl Progress {
     fn scvx(&mut self, r: &IterationRecord) {
         if !self.quiet {
-            eprintln!(
+            errln!(
                 "iter {:>3}  J {:>+12.6e}  m_f {:>10.1} kg  step {:>9.2e}  vc {:>9.2e}  radius {:>8.2e}  rho {:>+7.3}  {}{}  ipm {:>2}  {:>7.2} ms",
                 r.iteration,
                 r.cost,
@@ -150,7 +150,7 @@ impl Progress {
 
     fn direct(&mut self, r: &DirectIteration) {
         if !self.quiet {
-            eprintln!(
+            errln!(
                 "iter {:>3}  m_f {:>10.2} kg  inf_pr {:>9.2e}  inf_du {:>9.2e}  mu {:>8.1e}  alpha {:>8.2e}  reg {:>8.1e}  ls {:>2}{}  {:>6.3} ms",
                 r.iteration,
                 r.final_mass_kg,
@@ -176,7 +176,7 @@ fn print_mesh_summary(mesh: &serde_json::Value) {
                 e(a).total_cmp(&e(b))
             });
             if let Some(w) = worst {
-                println!(
+                outln!(
                     "mesh error    {:.1e} relative (largest on interval {} of {}, in {}; integration of the dynamics with the mesh's controls)",
                     w["relative_error"].as_f64().unwrap_or(f64::NAN),
                     w["interval"],
@@ -185,7 +185,7 @@ fn print_mesh_summary(mesh: &serde_json::Value) {
                 );
             }
         }
-        None => println!(
+        None => outln!(
             "mesh error    not estimated: {}",
             mesh["error"].as_str().unwrap_or("?")
         ),
@@ -194,10 +194,10 @@ fn print_mesh_summary(mesh: &serde_json::Value) {
 
 /// The human summary; `times_ms` are the sorted solve times of `--repeat`.
 fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, times_ms: &[f64]) {
-    println!("scenario      {}", scenario.name);
-    println!("status        {}", s.status.as_str());
+    outln!("scenario      {}", scenario.name);
+    outln!("status        {}", s.status.as_str());
     if !s.message.is_empty() {
-        println!("reason        {}", s.message);
+        outln!("reason        {}", s.message);
     }
     let mesh = match s.intervals {
         1 => "global mesh".to_string(),
@@ -212,7 +212,7 @@ fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, t
         ),
     };
     let names = s.method.names();
-    println!(
+    outln!(
         "method        {}, {} formulation, N = {}, {mesh}",
         names.title,
         s.formulation_label(settings.formulation),
@@ -221,29 +221,31 @@ fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, t
     if let Some(r) = &s.refinement {
         let stop = r.stop.describe();
         let last = r.passes.last().map_or(f64::NAN, |p| p.max_relative_error);
-        println!(
+        outln!(
             "refinement    {} passes to a tolerance of {:.0e}, max error {last:.1e}: {stop}",
             r.passes.len(),
             r.tolerance
         );
     }
-    println!("t_f           {:.4} s", s.tf_s);
-    println!(
+    outln!("t_f           {:.4} s", s.tf_s);
+    outln!(
         "final mass    {:.1} kg (fuel {:.1} kg)",
-        s.final_mass_kg, s.fuel_kg
+        s.final_mass_kg,
+        s.fuel_kg
     );
     // SCvx's iterations each solve a cone program by interior point.
     let inner: u32 = s.history.scvx.iter().map(|h| h.ipm_iterations).sum();
     if s.history.scvx.is_empty() {
-        println!("iterations    {} {}", s.iterations, names.iteration);
+        outln!("iterations    {} {}", s.iterations, names.iteration);
     } else {
-        println!(
+        outln!(
             "iterations    {} {}, {inner} interior-point in all",
-            s.iterations, names.iteration
+            s.iterations,
+            names.iteration
         );
     }
     if times_ms.len() > 1 {
-        println!(
+        outln!(
             "solve time    {:.1} ms (median of {} runs; min {:.1} ms, max {:.1} ms)",
             s.solve_time_ms,
             times_ms.len(),
@@ -251,9 +253,9 @@ fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, t
             times_ms[times_ms.len() - 1]
         );
     } else {
-        println!("solve time    {:.1} ms", s.solve_time_ms);
+        outln!("solve time    {:.1} ms", s.solve_time_ms);
     }
-    println!(
+    outln!(
         "checks        defect {:.1e}, virtual control {:.1e}, relaxation gap {:.1e}, thrust alignment {:.6}",
         s.checks.max_defect, s.checks.virtual_control, s.checks.relaxation_gap, s.checks.thrust_alignment_min
     );

@@ -47,24 +47,24 @@ pub fn run(args: &SweepArgs) -> ExitCode {
         match load::case(&solve_args) {
             Ok(s) => scenarios.push(s),
             Err(e) => {
-                eprintln!("error: {e}");
+                errln!("error: {e}");
                 return ExitCode::from(exit::BAD_INPUT);
             }
         }
     }
     let Some(base) = scenarios.first() else {
-        eprintln!("error: --nodes needs at least one N");
+        errln!("error: --nodes needs at least one N");
         return ExitCode::from(exit::BAD_INPUT);
     };
 
     if !args.json {
-        println!(
+        outln!(
             "scenario {}, {:?} formulation, landing error by DOP853 re-propagation with {} controls",
             base.scenario.name,
             base.solver.formulation,
             bellyflop::collocation::interpolation::Interpolation::from(args.interpolation).as_str()
         );
-        println!(
+        outln!(
             "{:>4}  {:<13} {:>9} {:>11} {:>9} {:>10} {:>10} {:>11} {:>6} {:>9}",
             "N",
             "status",
@@ -105,7 +105,7 @@ pub fn run(args: &SweepArgs) -> ExitCode {
                 Ok(p) => format!("{:.4}", f(&p.landing_error)),
                 Err(_) => "-".into(),
             };
-            println!(
+            outln!(
                 "{:>4}  {:<13} {:>9.4} {:>11.1} {:>9} {:>10} {:>10} {:>11} {:>6} {:>9.1}",
                 sol.nodes,
                 sol.status.as_str(),
@@ -119,7 +119,7 @@ pub fn run(args: &SweepArgs) -> ExitCode {
                 sol.solve_time_ms
             );
             if let Err(e) = &prop {
-                println!("      landing error unavailable: {e}");
+                outln!("      landing error unavailable: {e}");
             }
             let _ = std::io::stdout().flush();
         }
@@ -131,7 +131,7 @@ pub fn run(args: &SweepArgs) -> ExitCode {
             "interpolation": bellyflop::collocation::interpolation::Interpolation::from(args.interpolation),
             "runs": runs,
         });
-        println!("{out}");
+        outln!("{out}");
     }
     ExitCode::from(exit)
 }

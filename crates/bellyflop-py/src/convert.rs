@@ -1,8 +1,7 @@
 //! Conversions between Python objects and the core crate's serde values.
 
-use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use pyo3::types::{PyBool, PyComplex, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use pyo3::IntoPyObjectExt;
 use serde_json::Value;
 
@@ -56,30 +55,107 @@ fn is_numeric(items: &[Value]) -> bool {
     items.iter().any(Value::is_number) && items.iter().all(|x| x.is_number() || x.is_null())
 }
 
+/// How deep a scenario or configuration dict may nest: the deepest real
+/// key is four tables down (`solver.direct.…`), so 64 leaves room for any
+/// layout while the conversion's recursion stays far from the stack's end.
+pub const MAX_DEPTH: usize = 64;
+
 /// Nested dicts, lists and scalars as a TOML value (which, unlike JSON,
 /// holds NaN and infinities, so the core crate's validation names the field
-/// that has one). `path` names the key for errors.
-pub fn py_to_toml(ob: &Bound<'_, PyAny>, path: &str) -> PyResult<toml::Value> {
-    if ob.is_instance_of::<PyBool>() {
-        return Ok(toml::Value::Boolean(ob.extract()?));
+/// that has one). Any value is an `InputError` naming its key path (e.g.
+/// `initial.x_m[3]`) or a TOML value: a container that holds itself (a
+/// cycle) or a nest deeper than [`MAX_DEPTH`] stops there, so no input
+/// can overflow the stack.
+pub fn py_to_toml(ob: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    Walk { open: Vec::new() }.value(ob, "")
+}
+
+/// The containers open on the current path (their ids), for cycles and depth.
+struct Walk {
+    open: Vec<usize>,
+}
+
+fn name_of(path: &str) -> &str {
+    if path.is_empty() {
+        "the dict"
+    } else {
+        path
     }
-    if ob.is_instance_of::<PyInt>() {
-        let i: i64 = ob
-            .extract()
-            .map_err(|_| InputError::new_err(format!("{path}: integer out of range")))?;
-        return Ok(toml::Value::Integer(i));
+}
+
+impl Walk {
+    fn value(&mut self, ob: &Bound<'_, PyAny>, path: &str) -> PyResult<toml::Value> {
+        let err = |what: String| InputError::new_err(format!("{}: {what}", name_of(path)));
+        let numpy_type = type_name(ob);
+        if ob.is_instance_of::<PyBool>()
+            || numpy_type == "numpy.bool"
+            || numpy_type == "numpy.bool_"
+        {
+            return Ok(toml::Value::Boolean(ob.is_truthy()?));
+        }
+        if ob.is_instance_of::<PyString>() {
+            return Ok(toml::Value::String(ob.extract()?));
+        }
+        if ob.is_instance_of::<PyInt>() || is_numpy_integer(&numpy_type) {
+            let i = ob.call_method0("__index__")?;
+            return i.extract::<i64>().map(toml::Value::Integer).map_err(|_| {
+                err(format!(
+                    "the integer {i} is out of range: allowed {} to {}",
+                    i64::MIN,
+                    i64::MAX
+                ))
+            });
+        }
+        if ob.is_instance_of::<PyFloat>() {
+            return Ok(toml::Value::Float(ob.extract()?));
+        }
+        let is_dict = ob.is_instance_of::<PyDict>();
+        if is_dict || ob.is_instance_of::<PyList>() || ob.is_instance_of::<PyTuple>() {
+            let id = ob.as_ptr() as usize;
+            if self.open.contains(&id) {
+                return Err(err(
+                    "a cycle: this container holds itself (a dict or list inside its own value)"
+                        .to_string(),
+                ));
+            }
+            if self.open.len() >= MAX_DEPTH {
+                return Err(err(format!(
+                    "nested deeper than {MAX_DEPTH} dicts and lists (no scenario or configuration nests so deep)"
+                )));
+            }
+            self.open.push(id);
+            let v = if is_dict {
+                self.table(ob, path)
+            } else {
+                self.array(ob, path)
+            };
+            self.open.pop();
+            return v;
+        }
+        // Other numbers (numpy floats, Decimal, Fraction): anything with
+        // __float__; complex and everything else is not a number here.
+        let complex = ob.is_instance_of::<PyComplex>() || numpy_type.starts_with("numpy.complex");
+        if !complex && ob.hasattr("__float__")? {
+            if let Ok(x) = ob.extract::<f64>() {
+                return Ok(toml::Value::Float(x));
+            }
+        }
+        Err(err(format!(
+            "cannot use a {} in a scenario or configuration",
+            ob.get_type().name()?
+        )))
     }
-    if ob.is_instance_of::<PyFloat>() {
-        return Ok(toml::Value::Float(ob.extract()?));
-    }
-    if ob.is_instance_of::<PyString>() {
-        return Ok(toml::Value::String(ob.extract()?));
-    }
-    if let Ok(d) = ob.cast::<PyDict>() {
+
+    fn table(&mut self, ob: &Bound<'_, PyAny>, path: &str) -> PyResult<toml::Value> {
+        let d = ob.cast::<PyDict>()?;
         let mut table = toml::Table::new();
         for (k, v) in d.iter() {
             let key: String = k.extract().map_err(|_| {
-                PyTypeError::new_err(format!("{path}: keys must be str, got {k:?}"))
+                InputError::new_err(format!(
+                    "{}: keys must be str, got {}",
+                    name_of(path),
+                    k.repr().map_or_else(|_| "?".to_string(), |r| r.to_string())
+                ))
             })?;
             let sub = if path.is_empty() {
                 key.clone()
@@ -90,23 +166,30 @@ pub fn py_to_toml(ob: &Bound<'_, PyAny>, path: &str) -> PyResult<toml::Value> {
             if v.is_none() {
                 continue;
             }
-            table.insert(key, py_to_toml(&v, &sub)?);
+            table.insert(key, self.value(&v, &sub)?);
         }
-        return Ok(toml::Value::Table(table));
+        Ok(toml::Value::Table(table))
     }
-    if ob.is_instance_of::<PyList>() || ob.is_instance_of::<PyTuple>() {
+
+    fn array(&mut self, ob: &Bound<'_, PyAny>, path: &str) -> PyResult<toml::Value> {
         let mut out = Vec::new();
         for (i, v) in ob.try_iter()?.enumerate() {
-            out.push(py_to_toml(&v?, &format!("{path}[{i}]"))?);
+            out.push(self.value(&v?, &format!("{path}[{i}]"))?);
         }
-        return Ok(toml::Value::Array(out));
+        Ok(toml::Value::Array(out))
     }
-    // numpy scalars and anything else float-like.
-    if let Ok(x) = ob.extract::<f64>() {
-        return Ok(toml::Value::Float(x));
+}
+
+/// `module.name` of `ob`'s type (`numpy.bool`, `numpy.int64`).
+fn type_name(ob: &Bound<'_, PyAny>) -> String {
+    let t = ob.get_type();
+    match (t.module(), t.name()) {
+        (Ok(m), Ok(n)) => format!("{m}.{n}"),
+        _ => String::new(),
     }
-    Err(PyTypeError::new_err(format!(
-        "{path}: cannot use a {} in a scenario or configuration",
-        ob.get_type().name()?
-    )))
+}
+
+/// A numpy integer scalar (`numpy.int8` ... `numpy.uint64`).
+fn is_numpy_integer(type_name: &str) -> bool {
+    type_name.starts_with("numpy.int") || type_name.starts_with("numpy.uint")
 }

@@ -6,12 +6,14 @@
 //! GIL; a panic in the core becomes `bellyflop.InternalError`.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::time::Instant;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
 
 use bellyflop::collocation::interpolation::Interpolation;
 use bellyflop::guidance::SimConfig as CoreSimConfig;
 use bellyflop::output::campaign::{self, Cell, Kind, RunRow};
-use bellyflop::sim::RunOutcome;
+use bellyflop::sim::{RunOutcome, TouchdownLimits};
 // The Python `Scenario` is a whole scenario file: the problem and its
 // `[solver]` settings (bellyflop::Case).
 use bellyflop::input::overrides::Overrides;
@@ -30,13 +32,13 @@ mod convert;
 use convert::{json_to_py, py_to_toml};
 
 create_exception!(
-    _bellyflop,
+    bellyflop,
     InputError,
     PyValueError,
     "Input that cannot describe a landing problem: the message names the field, its value and the allowed range (or the TOML line)."
 );
 create_exception!(
-    _bellyflop,
+    bellyflop,
     InternalError,
     PyRuntimeError,
     "A bug in bellyflop (a Rust panic, caught before it reached the interpreter)."
@@ -50,14 +52,17 @@ fn input_error(e: bellyflop::InputError) -> PyErr {
 /// Run `f` with the GIL released; a panic becomes `InternalError`.
 fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
     py.detach(|| catch_unwind(AssertUnwindSafe(f)))
-        .map_err(|payload| {
-            let msg = payload
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "unknown panic".to_string());
-            InternalError::new_err(format!("bellyflop panicked: {msg}"))
-        })
+        .map_err(panic_error)
+}
+
+/// A caught panic as `InternalError`.
+fn panic_error(payload: Box<dyn std::any::Any + Send>) -> PyErr {
+    let msg = payload
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+        .unwrap_or_else(|| "unknown panic".to_string());
+    InternalError::new_err(format!("bellyflop panicked: {msg}"))
 }
 
 /// The attribute `name` of a JSON object, as Python (a nested object as a
@@ -91,27 +96,10 @@ fn keys(v: &Value) -> Vec<String> {
         .unwrap_or_default()
 }
 
-/// A TOML argument: text when a str holds a newline or `=` (a path holds
-/// neither), else a path (str or os.PathLike).
-enum TomlSource {
-    Text(String),
-    File(std::path::PathBuf),
-}
-
-fn toml_source(arg: &Bound<'_, PyAny>) -> PyResult<TomlSource> {
-    if let Ok(s) = arg.extract::<String>() {
-        if s.contains('\n') || s.contains('=') {
-            return Ok(TomlSource::Text(s));
-        }
-        return Ok(TomlSource::File(s.into()));
-    }
-    Ok(TomlSource::File(arg.extract()?))
-}
-
 /// A read-only view of one table of a scenario or configuration
 /// (`scenario.initial`, `scenario.solver.direct`): fields as attributes or
 /// items.
-#[pyclass(module = "bellyflop._bellyflop", frozen)]
+#[pyclass(module = "bellyflop", frozen)]
 struct Section {
     path: String,
     value: Value,
@@ -145,6 +133,25 @@ impl Section {
     fn __repr__(&self) -> String {
         format!("<bellyflop section {} {}>", self.path, self.value)
     }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<Section>()
+            .map(|o| o.get().path == self.path && o.get().value == self.value)
+            .unwrap_or(false)
+    }
+
+    /// Rebuild from its path and JSON text (pickling).
+    #[staticmethod]
+    fn _from_json(path: String, text: &str) -> PyResult<Self> {
+        let value = serde_json::from_str(text).map_err(|e| InputError::new_err(e.to_string()))?;
+        Ok(Section { path, value })
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String, String))> {
+        let ctor = py.get_type::<Section>().getattr("_from_json")?;
+        Ok((ctor, (self.path.clone(), self.value.to_string())))
+    }
 }
 
 /// The methods [`Scenario`] and [`SimConfig`] share, written once: the
@@ -161,14 +168,13 @@ macro_rules! toml_input_methods {
         impl $ty {
             $($own)*
 
-            /// Parse and validate TOML: text (a str with a newline or `=`) or a
-            /// file path (str or os.PathLike).
+            /// Read, parse and validate the TOML file at `path` (str or
+            /// os.PathLike). The argument is always a path, never TOML text
+            /// (`from_toml_text` parses text): a missing file is an
+            /// `InputError` naming it.
             #[staticmethod]
-            fn from_toml(path_or_text: &Bound<'_, PyAny>) -> PyResult<Self> {
-                match toml_source(path_or_text)? {
-                    TomlSource::Text(t) => Self::from_toml_text(&t),
-                    TomlSource::File(p) => Self::from_toml_file(p),
-                }
+            fn from_toml(path: std::path::PathBuf) -> PyResult<Self> {
+                Self::from_toml_file(path)
             }
 
             /// Parse and validate TOML text.
@@ -179,7 +185,7 @@ macro_rules! toml_input_methods {
                     .map_err(input_error)
             }
 
-            /// Read, parse and validate a TOML file.
+            /// Read, parse and validate a TOML file (as `from_toml`).
             #[staticmethod]
             fn from_toml_file(path: std::path::PathBuf) -> PyResult<Self> {
                 <$inner>::from_file(&path)
@@ -237,7 +243,7 @@ macro_rules! toml_input_methods {
 
 /// A landing problem: vehicle, environment, boundary states, mesh and
 /// solver settings, validated on construction.
-#[pyclass(module = "bellyflop._bellyflop", frozen)]
+#[pyclass(module = "bellyflop", frozen)]
 #[derive(Clone)]
 pub struct Scenario {
     inner: CoreScenario,
@@ -281,7 +287,7 @@ fn from_dict_value<T: serde::de::DeserializeOwned>(
     d: &Bound<'_, PyAny>,
     what: &str,
 ) -> PyResult<T> {
-    py_to_toml(d, "")?
+    py_to_toml(d)?
         .try_into()
         .map_err(|e: toml::de::Error| InputError::new_err(format!("{what} dict: {e}")))
 }
@@ -298,7 +304,7 @@ fn to_json<T: serde::Serialize>(v: &T) -> PyResult<Value> {
 
 /// The closed-loop configuration: `[dispersions]`, `[guidance]`, `[plant]`,
 /// `[touchdown]`, every field optional.
-#[pyclass(module = "bellyflop._bellyflop", frozen)]
+#[pyclass(module = "bellyflop", frozen)]
 #[derive(Clone)]
 pub struct SimConfig {
     inner: CoreSimConfig,
@@ -325,7 +331,7 @@ toml_input_methods!(
 
 /// The answer of one solve: the object `bellyflop solve --json` prints.
 /// Every key is an attribute; node arrays are numpy float64 arrays.
-#[pyclass(module = "bellyflop._bellyflop", frozen)]
+#[pyclass(module = "bellyflop", frozen)]
 pub struct Solution {
     value: Value,
     /// Time spent in Rust for this call (solve, re-propagation, JSON) \[ms\].
@@ -380,6 +386,15 @@ impl Solution {
         keys(&self.value)
     }
 
+    /// Equal answers: the same `--json` object (the timing and viewer data
+    /// aside, which unpickling drops).
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<Solution>()
+            .map(|o| o.get().value == self.value)
+            .unwrap_or(false)
+    }
+
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
         let ctor = py.get_type::<Solution>().getattr("_from_json")?;
         Ok((ctor, (self.to_json(),)))
@@ -408,7 +423,7 @@ impl Solution {
 
 /// One closed-loop landing: the object `bellyflop sim --json` prints, the
 /// flown trace (the columns of flight.csv) and the run's runs.csv row.
-#[pyclass(module = "bellyflop._bellyflop", frozen)]
+#[pyclass(module = "bellyflop", frozen)]
 pub struct Flight {
     /// {"flight": sim --json object, "trace": {column: [..]}, "row": {..}}
     value: Value,
@@ -462,6 +477,15 @@ impl Flight {
         let mut k = keys(&self.value["flight"]);
         k.extend(["trace".to_string(), "row".to_string()]);
         k
+    }
+
+    /// Equal flights: the same object, trace and row (the viewer data
+    /// aside, which unpickling drops).
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<Flight>()
+            .map(|o| o.get().value == self.value)
+            .unwrap_or(false)
     }
 
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
@@ -637,6 +661,11 @@ fn floats(v: &[f64]) -> Value {
 /// per core) and return one tuple per run, in run order, for
 /// [`campaign_table`]. Plain tuples pickle, so a chunk can come back from
 /// any executor's worker.
+///
+/// The runs fly on a thread of their own while this one, every
+/// [`SIGNAL_POLL`], checks for signals: on Ctrl-C (any handler that raises)
+/// no further run starts, the runs in flight finish, and the exception is
+/// raised.
 #[pyfunction]
 #[pyo3(signature = (scenario, config, seed, start, stop, threads=1))]
 fn campaign_chunk<'py>(
@@ -650,7 +679,8 @@ fn campaign_chunk<'py>(
 ) -> PyResult<Bound<'py, PyList>> {
     let s = scenario.inner.clone();
     let c = config.inner.clone();
-    let rows = detached(py, move || -> Result<Vec<RunRow>, String> {
+    let stop_flag = AtomicBool::new(false);
+    let fly = || -> Result<Vec<RunRow>, String> {
         use rayon::prelude::*;
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -659,18 +689,53 @@ fn campaign_chunk<'py>(
         pool.install(|| {
             (start..stop)
                 .into_par_iter()
+                .filter(|_| !stop_flag.load(Ordering::SeqCst))
                 .map(|k| campaign::fly_row(&s, &c, seed, k))
                 .collect::<Result<Vec<RunRow>, bellyflop::InputError>>()
         })
         .map_err(|e| e.to_string())
-    })?
-    .map_err(InputError::new_err)?;
+    };
+    let rows = std::thread::scope(|scope| -> PyResult<Vec<RunRow>> {
+        let (tx, rx) = mpsc::channel();
+        scope.spawn(move || {
+            let _ = tx.send(catch_unwind(AssertUnwindSafe(fly)));
+        });
+        let mut rx = rx;
+        loop {
+            // The receiver is Send but not Sync: it goes into the detached
+            // closure and comes back.
+            let (back, received) = py.detach(move || {
+                let r = rx.recv_timeout(SIGNAL_POLL);
+                (rx, r)
+            });
+            rx = back;
+            match received {
+                Ok(result) => return result.map_err(panic_error)?.map_err(InputError::new_err),
+                Err(mpsc::RecvTimeoutError::Timeout) => {
+                    if let Err(e) = py.check_signals() {
+                        stop_flag.store(true, Ordering::SeqCst);
+                        // The runs in flight end; their rows are dropped.
+                        let _ = py.detach(move || rx.recv());
+                        return Err(e);
+                    }
+                }
+                Err(mpsc::RecvTimeoutError::Disconnected) => {
+                    return Err(InternalError::new_err(
+                        "the campaign's thread ended without an answer",
+                    ))
+                }
+            }
+        }
+    })?;
     let tuples = rows
         .iter()
         .map(|r| row_to_py(py, r))
         .collect::<PyResult<Vec<_>>>()?;
     PyList::new(py, tuples)
 }
+
+/// How often a campaign's calling thread checks for signals (Ctrl-C).
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
 
 /// A run's row as a tuple: its runs.csv cells in order, then its re-plan
 /// times (the tuple a Dask task hands back).
@@ -694,7 +759,7 @@ fn cell_to_py(py: Python<'_>, c: Cell) -> PyResult<Bound<'_, PyAny>> {
 }
 
 /// The row of a tuple from [`row_to_py`].
-fn row_from_py(t: &Bound<'_, PyAny>, config: &CoreSimConfig) -> PyResult<RunRow> {
+fn row_from_py(t: &Bound<'_, PyAny>, limits: TouchdownLimits) -> PyResult<RunRow> {
     let cells = campaign::RUNS_CSV
         .iter()
         .enumerate()
@@ -718,32 +783,45 @@ fn row_from_py(t: &Bound<'_, PyAny>, config: &CoreSimConfig) -> PyResult<RunRow>
         })
         .collect::<PyResult<Vec<Cell>>>()?;
     let replan_ms = t.get_item(campaign::RUNS_CSV.len())?.extract()?;
-    RunRow::from_cells(&cells, replan_ms, config.touchdown).map_err(InputError::new_err)
+    RunRow::from_cells(&cells, replan_ms, limits).map_err(InputError::new_err)
 }
 
 /// The table of a campaign: runs.csv's columns, its text and the summary.
-#[pyclass(module = "bellyflop._bellyflop", frozen)]
+#[pyclass(module = "bellyflop", frozen)]
 pub struct CampaignTable {
     rows: Vec<RunRow>,
     summary: Value,
 }
 
+/// Rows (tuples of [`row_to_py`]) as RunRows judged by `limits`.
+fn rows_from_py(rows: &Bound<'_, PyAny>, limits: TouchdownLimits) -> PyResult<Vec<RunRow>> {
+    rows.try_iter()?.map(|t| row_from_py(&t?, limits)).collect()
+}
+
 /// Assemble the rows of every chunk (in any order) into a CampaignTable
-/// sorted by run, with the CLI's summary.
+/// sorted by run, with the CLI's summary. With `runs`, every run of 0..runs
+/// must be there exactly once (a duplicate equal to the first dropped), as
+/// [`campaign_account`] checks; without, the rows are those that came back.
 #[pyfunction]
-#[pyo3(signature = (rows, config, seed, threads, wall_s))]
+#[pyo3(signature = (rows, config, seed, threads, wall_s, runs=None))]
 fn campaign_table(
     rows: &Bound<'_, PyAny>,
     config: &SimConfig,
     seed: u64,
     threads: usize,
     wall_s: f64,
+    runs: Option<u64>,
 ) -> PyResult<CampaignTable> {
-    let mut out = Vec::new();
-    for t in rows.try_iter()? {
-        out.push(row_from_py(&t?, &config.inner)?);
-    }
-    out.sort_by_key(|r| r.run);
+    let rows = rows_from_py(rows, config.inner.touchdown)?;
+    let total = runs.unwrap_or_else(|| rows.iter().map(|r| r.run + 1).max().unwrap_or(0));
+    let accounted =
+        campaign::account(rows, total).map_err(|e| InputError::new_err(e.to_string()))?;
+    let out = match runs {
+        Some(n) => accounted
+            .complete(n)
+            .map_err(|e| InputError::new_err(e.to_string()))?,
+        None => accounted.rows,
+    };
     let open_loop = !config.inner.guidance.replan;
     let summary = campaign::summary(
         &out,
@@ -754,6 +832,46 @@ fn campaign_table(
         open_loop,
     );
     Ok(CampaignTable { rows: out, summary })
+}
+
+/// What [`campaign_account`] hands back: the unique rows, the missing runs,
+/// the conflict's message and the missing runs' message.
+type Accounting<'py> = (Bound<'py, PyList>, Vec<u64>, Option<String>, Option<String>);
+
+/// A CampaignTable's pickle: its constructor, and the rows, the touchdown
+/// limits and the summary (JSON text).
+type TableReduce<'py> = (Bound<'py, PyAny>, (Bound<'py, PyList>, String, String));
+
+/// Account for the rows of a campaign of `runs` runs that came back so far
+/// (`bellyflop::output::campaign::account`): `(rows, missing, conflict,
+/// missing_message)`: the unique rows in run order (tuples), the runs not
+/// there, the error when a run came back twice with different results (or
+/// a run outside 0..runs) and the message that names the missing runs
+/// (`None` when none is).
+#[pyfunction]
+fn campaign_account<'py>(
+    py: Python<'py>,
+    rows: &Bound<'py, PyAny>,
+    runs: u64,
+    config: &SimConfig,
+) -> PyResult<Accounting<'py>> {
+    let rows = rows_from_py(rows, config.inner.touchdown)?;
+    let (unique, missing, conflict) = match campaign::account(rows, runs) {
+        Ok(a) => (a.rows, a.missing, None),
+        Err(e) => (Vec::new(), Vec::new(), Some(e.to_string())),
+    };
+    let message = (!missing.is_empty()).then(|| {
+        campaign::CampaignError::Missing {
+            runs,
+            missing: missing.clone(),
+        }
+        .to_string()
+    });
+    let tuples = unique
+        .iter()
+        .map(|r| row_to_py(py, r))
+        .collect::<PyResult<Vec<_>>>()?;
+    Ok((PyList::new(py, tuples)?, missing, conflict, message))
 }
 
 #[pymethods]
@@ -802,6 +920,70 @@ impl CampaignTable {
     fn __len__(&self) -> usize {
         self.rows.len()
     }
+
+    /// Equal tables: the same runs.csv text (every digit), re-plan times
+    /// and summary.
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<CampaignTable>()
+            .map(|o| {
+                let o = o.get();
+                o.summary == self.summary
+                    && campaign::runs_csv(&o.rows) == campaign::runs_csv(&self.rows)
+                    && o.rows.len() == self.rows.len()
+                    && o.rows
+                        .iter()
+                        .zip(&self.rows)
+                        .all(|(a, b)| a.replan_ms == b.replan_ms && a.limits == b.limits)
+            })
+            .unwrap_or(false)
+    }
+
+    /// Rebuild from the rows' tuples, the touchdown limits and the summary
+    /// as JSON text (pickling).
+    #[staticmethod]
+    fn _from_state(rows: &Bound<'_, PyAny>, limits: &str, summary: &str) -> PyResult<Self> {
+        let limits: TouchdownLimits =
+            serde_json::from_str(limits).map_err(|e| InputError::new_err(e.to_string()))?;
+        let summary =
+            serde_json::from_str(summary).map_err(|e| InputError::new_err(e.to_string()))?;
+        Ok(CampaignTable {
+            rows: rows_from_py(rows, limits)?,
+            summary,
+        })
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<TableReduce<'py>> {
+        let ctor = py.get_type::<CampaignTable>().getattr("_from_state")?;
+        let rows = self
+            .rows
+            .iter()
+            .map(|r| row_to_py(py, r))
+            .collect::<PyResult<Vec<_>>>()?;
+        let limits = self.rows.first().map(|r| r.limits).unwrap_or_default();
+        let limits =
+            serde_json::to_string(&limits).map_err(|e| InternalError::new_err(e.to_string()))?;
+        Ok((
+            ctor,
+            (PyList::new(py, rows)?, limits, self.summary.to_string()),
+        ))
+    }
+}
+
+/// The allowed ranges of the integer arguments (`nodes`, `intervals`,
+/// `runs`, `seed`, `run`, `threads`), from the core crate's range table
+/// (`bellyflop::input::validate`).
+#[pyfunction]
+fn argument_ranges() -> Vec<(&'static str, u64, u64)> {
+    use bellyflop::input::validate::{INTERVALS, NODES, RUN, RUNS, SEED, THREADS};
+    vec![
+        ("nodes", NODES.0 as u64, NODES.1 as u64),
+        ("intervals", INTERVALS.0 as u64, INTERVALS.1 as u64),
+        ("runs", RUNS.0, RUNS.1),
+        ("seed", SEED.0, SEED.1),
+        ("run", RUN.0, RUN.1),
+        ("threads", THREADS.0, THREADS.1),
+    ]
 }
 
 /// Panic inside Rust, as a bug would: the tests check that it arrives as
@@ -832,6 +1014,8 @@ fn _bellyflop(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sim, m)?)?;
     m.add_function(wrap_pyfunction!(campaign_chunk, m)?)?;
     m.add_function(wrap_pyfunction!(campaign_table, m)?)?;
+    m.add_function(wrap_pyfunction!(campaign_account, m)?)?;
+    m.add_function(wrap_pyfunction!(argument_ranges, m)?)?;
     m.add_function(wrap_pyfunction!(runs_csv_columns, m)?)?;
     m.add_function(wrap_pyfunction!(_panic_for_tests, m)?)?;
     Ok(())

@@ -47,3 +47,10 @@ def without_timing(v):
     if isinstance(v, list):
         return [without_timing(x) for x in v]
     return v
+
+
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers",
+        "big: the property-based run of at least 10,000 examples per type (about a minute each)",
+    )

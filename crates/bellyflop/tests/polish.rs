@@ -97,3 +97,35 @@ fn the_polish_gains_fuel_over_the_raw_answer_and_fast_keeps_the_raw_one() {
     let gain = polished.final_mass_kg - raw.final_mass_kg;
     assert!((0.0..20.0).contains(&gain), "gain {gain} kg");
 }
+
+#[test]
+fn after_a_failed_polish_the_remedy_is_more_nodes_not_the_polish() {
+    // The raw answer judged as if the polish had run and failed (polish on,
+    // no flown controls): the message must not send the user back to the
+    // polish (issue 36), but to more nodes or intervals.
+    let mut sol = solve(Method::Direct, false);
+    assert!(sol.message.contains("polish the answer"), "{}", sol.message);
+    sol.status = Status::Solved;
+    sol.message.clear();
+    let polished = SolverSettings::default();
+    assert!(polished.polish);
+    bellyflop::verify::accuracy::check(&Scenario::paper(), &polished, &mut sol);
+    assert_eq!(sol.status, Status::Inaccurate);
+    assert!(
+        !sol.message.contains("polish the answer"),
+        "{}",
+        sol.message
+    );
+    assert!(
+        sol.message
+            .contains("the polish could not make its controls fly"),
+        "{}",
+        sol.message
+    );
+    assert!(
+        sol.message
+            .contains("use more nodes (discretization.nodes or --nodes, e.g. 40)"),
+        "{}",
+        sol.message
+    );
+}

@@ -14,6 +14,7 @@ use plotters::prelude::*;
 
 use super::common::{fonts, Res, FONT};
 use crate::error::OutputError;
+use crate::files::commit;
 
 const BLUE: RGBColor = RGBColor(31, 90, 180);
 const RED: RGBColor = RGBColor(200, 30, 30);
@@ -34,19 +35,19 @@ fn both(
 ) -> Result<Vec<PathBuf>, OutputError> {
     fonts();
     let svg = dir.join(format!("{stem}.svg"));
-    {
-        let root = SVGBackend::new(&svg, size).into_drawing_area();
+    commit(&svg, |tmp| {
+        let root = SVGBackend::new(tmp, size).into_drawing_area();
         draw(&root)
             .and_then(|()| root.present())
-            .map_err(|e| OutputError::plot(&svg, e))?;
-    }
+            .map_err(|e| OutputError::plot(&svg, e))
+    })?;
     let png = dir.join(format!("{stem}.png"));
-    {
-        let root = BitMapBackend::new(&png, size).into_drawing_area();
+    commit(&png, |tmp| {
+        let root = BitMapBackend::new(tmp, size).into_drawing_area();
         draw_png(&root)
             .and_then(|()| root.present())
-            .map_err(|e| OutputError::plot(&png, e))?;
-    }
+            .map_err(|e| OutputError::plot(&png, e))
+    })?;
     Ok(vec![svg, png])
 }
 

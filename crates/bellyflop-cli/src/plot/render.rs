@@ -10,6 +10,7 @@ use super::data::PlotData;
 use super::histories::draw_histories;
 use super::path::draw_path;
 use crate::error::OutputError;
+use crate::files::commit;
 
 /// Every plot: file stem and size in pixels.
 pub const PLOTS: [(&str, (u32, u32)); 3] = [
@@ -25,20 +26,20 @@ pub fn render_all(dir: &Path, d: &PlotData) -> Result<Vec<PathBuf>, OutputError>
     macro_rules! both {
         ($stem:expr, $size:expr, $draw:ident) => {{
             let svg = dir.join(format!("{}.svg", $stem));
-            {
-                let root = SVGBackend::new(&svg, $size).into_drawing_area();
+            commit(&svg, |tmp| {
+                let root = SVGBackend::new(tmp, $size).into_drawing_area();
                 $draw(&root, d)
                     .and_then(|()| root.present())
-                    .map_err(|e| OutputError::plot(&svg, e))?;
-            }
+                    .map_err(|e| OutputError::plot(&svg, e))
+            })?;
             written.push(svg);
             let png = dir.join(format!("{}.png", $stem));
-            {
-                let root = BitMapBackend::new(&png, $size).into_drawing_area();
+            commit(&png, |tmp| {
+                let root = BitMapBackend::new(tmp, $size).into_drawing_area();
                 $draw(&root, d)
                     .and_then(|()| root.present())
-                    .map_err(|e| OutputError::plot(&png, e))?;
-            }
+                    .map_err(|e| OutputError::plot(&png, e))
+            })?;
             written.push(png);
         }};
     }

@@ -7,31 +7,38 @@ The numbers come from the Rust core crate, serialized by the same code as the
 runs.csv that ``bellyflop montecarlo --out`` writes.
 
 - :class:`Scenario`: a landing problem (``Scenario.paper()``,
-  ``Scenario.from_toml(path_or_text)``, ``Scenario.from_dict(d)``);
+  ``Scenario.from_toml(path)``, ``Scenario.from_toml_text(text)``,
+  ``Scenario.from_dict(d)``);
 - :func:`solve` -> :class:`Solution`;
 - :func:`sim` -> :class:`Flight` (one closed-loop landing with dispersions);
 - :func:`montecarlo` -> :class:`Campaign` (many landings, on any
   ``concurrent.futures.Executor``).
 
 Bad input raises :class:`InputError` (a ``ValueError``); a solve that does
-not converge is a ``status``, not an exception.
+not converge is a ``status``, not an exception; a campaign whose runs do not
+all come back raises :class:`CampaignError`. Every object and exception
+pickles.
 """
 
 from __future__ import annotations
 
+import concurrent.futures
+import operator
 import os
 import time
 from concurrent.futures import Executor
-from typing import Any, Dict, List, Mapping, Optional, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
 from . import _bellyflop
 from ._bellyflop import (
+    CampaignTable,
     Flight,
     InputError,
     InternalError,
     Scenario,
+    Section,
     SimConfig,
     Solution,
 )
@@ -42,8 +49,11 @@ __all__ = [
     "Solution",
     "Flight",
     "Campaign",
+    "CampaignTable",
+    "Section",
     "InputError",
     "InternalError",
+    "CampaignError",
     "solve",
     "sim",
     "montecarlo",
@@ -53,12 +63,45 @@ __all__ = [
 #: The columns of runs.csv (and of :attr:`Campaign.columns`), in order.
 RUNS_CSV_COLUMNS: List[str] = list(_bellyflop.runs_csv_columns())
 
+#: The allowed range of each integer argument (``nodes``, ``intervals``,
+#: ``runs``, ``seed``, ``run``, ``threads``): the core crate's range table.
+ARGUMENT_RANGES: Dict[str, tuple] = {name: (lo, hi) for name, lo, hi in _bellyflop.argument_ranges()}
+
+
+def _count(name: str, value: Any) -> int:
+    """``value`` as an int within the range of argument ``name``, else
+    InputError naming the argument, the value and the range."""
+    lo, hi = ARGUMENT_RANGES[name]
+    if isinstance(value, bool) or not hasattr(type(value), "__index__"):
+        raise InputError(f"{name} = {value!r} is not an integer: allowed {lo} to {hi}")
+    v = operator.index(value)
+    if not lo <= v <= hi:
+        raise InputError(f"{name} = {v} is out of range: allowed {lo} to {hi}")
+    return v
+
+
+class CampaignError(RuntimeError):
+    """A campaign whose runs did not all come back once: runs missing after
+    the re-submissions (:attr:`missing`), or a run that came back twice with
+    different results. :attr:`campaign` holds the rows that did come back
+    (a :class:`Campaign`, or None)."""
+
+    def __init__(self, message: str, missing: Sequence[int] = (), campaign: Optional["Campaign"] = None):
+        super().__init__(message)
+        self.missing: List[int] = list(missing)
+        self.campaign = campaign
+
+    def __reduce__(self):
+        return (type(self), (self.args[0], self.missing, self.campaign))
+
+
 ScenarioLike = Union[Scenario, Mapping[str, Any], str, "os.PathLike[str]", None]
 ConfigLike = Union[SimConfig, Mapping[str, Any], str, "os.PathLike[str]", None]
 
 
 def _scenario(s: ScenarioLike) -> Scenario:
-    """A Scenario from None (the paper's case), a Scenario, a dict, or TOML."""
+    """A Scenario from None (the paper's case), a Scenario, a dict, or the
+    path of a TOML file."""
     if s is None:
         return Scenario.paper()
     if isinstance(s, Scenario):
@@ -69,7 +112,8 @@ def _scenario(s: ScenarioLike) -> Scenario:
 
 
 def _config(c: ConfigLike) -> SimConfig:
-    """A SimConfig from None (the defaults), a SimConfig, a dict, or TOML."""
+    """A SimConfig from None (the defaults), a SimConfig, a dict, or the
+    path of a TOML file."""
     if c is None:
         return SimConfig()
     if isinstance(c, SimConfig):
@@ -92,8 +136,9 @@ def solve(
 ) -> Solution:
     """Solve one landing problem, as ``bellyflop solve --json`` does.
 
-    ``scenario`` is the paper's case when omitted (or a Scenario, a dict, a
-    TOML path or text). ``nodes`` (N), ``intervals`` (M), ``method``
+    ``scenario`` is the paper's case when omitted (or a Scenario, a dict, the
+    path of a TOML file; TOML text goes through ``Scenario.from_toml_text``).
+    ``nodes`` (N), ``intervals`` (M), ``method``
     (``"direct"`` or ``"scvx"``) and ``formulation`` (``"exact"``,
     ``"paper"``, ``"vector"``) override the scenario; ``interpolation``
     (``"pchip"`` or ``"linear"``) rebuilds the controls for the landing error.
@@ -105,12 +150,13 @@ def solve(
     (``--fast``).
 
     The GIL is released while the core solves. Raises :class:`InputError`
-    on bad input; any other outcome is ``Solution.status``.
+    on bad input (integers out of range included); any other outcome is
+    ``Solution.status``.
     """
     return _bellyflop.solve(
         _scenario(scenario),
-        nodes=nodes,
-        intervals=intervals,
+        nodes=None if nodes is None else _count("nodes", nodes),
+        intervals=None if intervals is None else _count("intervals", intervals),
         method=method,
         formulation=formulation,
         mesh_tolerance=mesh_tolerance,
@@ -130,14 +176,19 @@ def sim(
     ``bellyflop sim --seed S --run K --json`` does (the same dispersions as
     that run of :func:`montecarlo`). ``config`` holds the tables
     ``[dispersions]``, ``[guidance]``, ``[plant]``, ``[touchdown]``."""
+    seed, run = _count("seed", seed), _count("run", run)
     return _bellyflop.sim(_scenario(scenario), _config(config), seed=seed, run=run)
 
 
 def _fly_chunk(
-    scenario: Scenario, config: SimConfig, seed: int, start: int, stop: int
+    scenario: Scenario, config: SimConfig, seed: int, start: int, stop: int, attempt: int = 0
 ) -> list:
     """Fly runs ``start..stop`` on one thread (an executor's task): the
-    rows as plain tuples, which pickle."""
+    rows as plain tuples, which pickle. ``attempt`` counts re-submissions:
+    it changes nothing here, but makes a re-submitted task a new task for
+    executors that name tasks by their arguments (Dask's pure keys would
+    otherwise hand back the lost future again)."""
+    del attempt
     return _bellyflop.campaign_chunk(scenario, config, seed, start, stop, threads=1)
 
 
@@ -166,6 +217,12 @@ class Campaign:
     def __len__(self) -> int:
         return len(self._table)
 
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Campaign) and self._table == other._table
+
+    def __reduce__(self):
+        return (Campaign, (self._table,))
+
     def runs_csv(self) -> str:
         """The text of runs.csv, as ``bellyflop montecarlo --out`` writes it."""
         return self._table.runs_csv()
@@ -174,8 +231,19 @@ class Campaign:
         return f"<bellyflop.Campaign {len(self)} runs, {self.summary['in_spec']} in spec>"
 
 
-def _chunks(runs: int, chunk: int) -> List[range]:
-    return [range(a, min(a + chunk, runs)) for a in range(0, runs, chunk)]
+def _chunks(runs: Sequence[int], chunk: int) -> List[range]:
+    """Consecutive runs of ``runs`` (sorted) as ranges of at most ``chunk``."""
+    out: List[range] = []
+    for k in runs:
+        if out and out[-1].stop == k and len(out[-1]) < chunk:
+            out[-1] = range(out[-1].start, k + 1)
+        else:
+            out.append(range(k, k + 1))
+    return out
+
+
+#: How often a campaign on an executor checks for Ctrl-C while it waits [s].
+_POLL_S = 0.1
 
 
 def montecarlo(
@@ -187,6 +255,7 @@ def montecarlo(
     executor: Optional[Executor] = None,
     chunk: Optional[int] = None,
     threads: int = 0,
+    retries: int = 2,
 ) -> Campaign:
     """Fly ``runs`` dispersed closed-loop landings of campaign ``seed``.
 
@@ -195,22 +264,37 @@ def montecarlo(
     runs them:
 
     - ``executor=None``: in this process on ``threads`` threads (0: one per
-      core), the GIL released;
+      core; never more than the runs), the GIL released;
     - ``executor=E``: any ``concurrent.futures.Executor`` (a process pool,
       Dask's ``client.get_executor()``, a Ray adapter...). The runs are cut
       into tasks of ``chunk`` runs (default: about four tasks per worker
       when the executor tells its worker count, else 8 runs).
+
+    Every run is accounted for: each index in 0..runs must come back exactly
+    once. Runs that do not (a lost worker, a failed future, a task that
+    dropped rows) are submitted again, up to ``retries`` more times, then
+    :class:`CampaignError` names them and keeps the rows that came back
+    (``e.campaign``). A run that comes back twice is kept once when both
+    rows agree (every column but the wall-clock ones), else it is a
+    :class:`CampaignError`. The summary counts each run once.
+
+    Ctrl-C (SIGINT) raises ``KeyboardInterrupt`` within a fraction of a
+    second: no further run starts and the executor's outstanding futures are
+    cancelled.
     """
-    if not isinstance(runs, int) or isinstance(runs, bool) or not 1 <= runs <= 1_000_000:
-        raise InputError(f"runs = {runs!r} is out of range: allowed 1 to 1000000")
-    if chunk is not None and (not isinstance(chunk, int) or chunk < 1):
+    runs = _count("runs", runs)
+    seed = _count("seed", seed)
+    threads = _count("threads", threads)
+    if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1):
         raise InputError(f"chunk = {chunk!r} is out of range: allowed 1 or more")
+    if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
+        raise InputError(f"retries = {retries!r} is out of range: allowed 0 or more")
     s = _scenario(scenario)
     c = _config(config)
     start = time.perf_counter()
     if executor is None:
-        rows = _bellyflop.campaign_chunk(s, c, seed, 0, runs, threads=threads)
-        workers = threads or (os.cpu_count() or 1)
+        workers = min(threads or (os.cpu_count() or 1), runs)
+        rows = _bellyflop.campaign_chunk(s, c, seed, 0, runs, threads=workers)
     else:
         workers = _workers(executor)
         if chunk is not None:
@@ -219,14 +303,74 @@ def montecarlo(
             size = max(1, -(-runs // (4 * workers)))
         else:
             size = 8
-        futures = [
-            executor.submit(_fly_chunk, s, c, seed, r.start, r.stop)
-            for r in _chunks(runs, size)
-        ]
-        rows = [row for f in futures for row in f.result()]
+        rows = _gather(executor, s, c, seed, runs, size, retries, workers, start)
     wall_s = time.perf_counter() - start
-    table = _bellyflop.campaign_table(rows, c, seed, workers, wall_s)
+    table = _bellyflop.campaign_table(rows, c, seed, workers, wall_s, runs)
     return Campaign(table)
+
+
+def _gather(
+    executor: Executor,
+    s: Scenario,
+    c: SimConfig,
+    seed: int,
+    runs: int,
+    size: int,
+    retries: int,
+    workers: int,
+    start: float,
+) -> list:
+    """Every run's row from ``executor``: the chunks submitted, the runs
+    that did not come back submitted again (``retries`` times at most)."""
+    rows: list = []
+    todo = list(range(runs))
+    lost: Optional[BaseException] = None
+    for attempt in range(retries + 1):
+        try:
+            futures = [executor.submit(_fly_chunk, s, c, seed, r.start, r.stop, attempt) for r in _chunks(todo, size)]
+        except Exception as e:  # noqa: BLE001 - a broken executor: what came back is kept
+            lost = e
+            break
+        got, error = _wait(futures)
+        if error is not None:
+            lost = error
+        rows, missing, conflict, message = _bellyflop.campaign_account(rows + got, runs, c)
+        if conflict is not None:
+            raise CampaignError(conflict, campaign=None)
+        if not missing:
+            return rows
+        todo = missing
+    rows, missing, _, message = _bellyflop.campaign_account(rows, runs, c)
+    table = _bellyflop.campaign_table(rows, c, seed, workers, time.perf_counter() - start)
+    how = f" (after {attempt} re-submissions" + (f"; last failure: {lost!r})" if lost else ")")
+    raise CampaignError(message + how, missing, Campaign(table)) from lost
+
+
+def _wait(futures: list) -> tuple:
+    """The rows of every future, and the last exception of those that
+    failed (lost runs, to submit again). A bad-input or internal error is
+    raised as is. On Ctrl-C (or any exception here) the futures not done
+    are cancelled."""
+    got: list = []
+    error: Optional[BaseException] = None
+    pending = set(futures)
+    try:
+        while pending:
+            done, pending = concurrent.futures.wait(
+                pending, timeout=_POLL_S, return_when=concurrent.futures.FIRST_COMPLETED
+            )
+            for f in done:
+                try:
+                    got.extend(f.result())
+                except (InputError, InternalError):
+                    raise
+                except Exception as e:  # noqa: BLE001 - a lost task: its runs go again
+                    error = e
+    except BaseException:
+        for f in pending:
+            f.cancel()
+        raise
+    return got, error
 
 
 def _workers(executor: Executor) -> int:

@@ -92,13 +92,30 @@ const GIMBAL: Range = Range::open(-90.0, 90.0, "deg");
 /// LGR collocation points N: at least 4 so the polynomial can represent the
 /// flip (the paper uses 20), at most 200 over several intervals (a refined
 /// mesh, or a fine reference such as 20 × 8; each interval is at most
-/// [`INTERVAL_POINTS`]).
-const NODES: (usize, usize) = (4, 200);
+/// `INTERVAL_POINTS`).
+pub const NODES: (usize, usize) = (4, 200);
 /// N of the global mesh (one interval): at most 100, beyond which its dense
 /// differentiation matrix is ill-conditioned and the subproblem is large.
 const GLOBAL_NODES_MAX: usize = 100;
 /// LGR mesh intervals M (further limited to N/2).
-const INTERVALS: (usize, usize) = (1, 50);
+pub const INTERVALS: (usize, usize) = (1, 50);
+// ---------------------------------------------------------------------------
+// The arguments of a call rather than fields of a file: the CLI's flags and
+// the Python package's keyword arguments (`nodes` and `intervals` are the
+// two above).
+// ---------------------------------------------------------------------------
+
+/// Landings in one campaign (`montecarlo --runs`, `montecarlo(runs)`).
+pub const RUNS: (u64, u64) = (1, 1_000_000);
+/// A campaign's seed (`--seed`, `seed=`): any 64-bit unsigned integer.
+pub const SEED: (u64, u64) = (0, u64::MAX);
+/// A run's index in its campaign (`sim --run`, `sim(run=)`): any 64-bit
+/// unsigned integer.
+pub const RUN: (u64, u64) = (0, u64::MAX);
+/// Worker threads (`--threads`, `threads=`; 0: one per core). A campaign
+/// uses at most one per run, so a larger count costs nothing.
+pub const THREADS: (u64, u64) = (0, 1_000_000);
+
 /// LGR points n_k of one interval of an explicit mesh: at least 2, as the
 /// uniform split's M ≤ N/2 demands, at most the cap on N.
 const INTERVAL_POINTS: (usize, usize) = (2, 100);

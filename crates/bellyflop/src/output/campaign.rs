@@ -299,6 +299,146 @@ impl RunRow {
     }
 }
 
+/// runs.csv's wall-clock columns: two deliveries of one run (an executor
+/// that ran it twice) may differ in these and in nothing else.
+pub const TIMING_COLUMNS: [&str; 2] = ["late_replans", "max_replan_ms"];
+
+impl RunRow {
+    /// The first column other than [`TIMING_COLUMNS`] in which `self` and
+    /// `other` differ (bit for bit, so NaN equals NaN), with both cells;
+    /// `None` when they are the same run's row.
+    pub fn differs_from(&self, other: &RunRow) -> Option<(&'static str, String, String)> {
+        let (a, b) = (self.cells(), other.cells());
+        RUNS_CSV
+            .iter()
+            .zip(a.iter().zip(b.iter()))
+            .filter(|(c, _)| !TIMING_COLUMNS.contains(&c.name))
+            .find(|(_, (x, y))| !same_cell(**x, **y))
+            .map(|(c, (x, y))| (c.name, x.to_string(), y.to_string()))
+    }
+}
+
+fn same_cell(a: Cell, b: Cell) -> bool {
+    match (a, b) {
+        (Cell::Number(x), Cell::Number(y)) => x.to_bits() == y.to_bits(),
+        _ => a == b,
+    }
+}
+
+/// Why the rows that came back do not make the campaign.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CampaignError {
+    /// Runs that never came back (after any re-submissions).
+    #[error("{} of the campaign's {runs} runs did not come back: runs {}", missing.len(), list_runs(missing))]
+    Missing { runs: u64, missing: Vec<u64> },
+    /// One run came back twice with different deterministic cells.
+    #[error("run {run} came back twice with different results: {column} = {first} and {second}")]
+    Conflict {
+        run: u64,
+        column: &'static str,
+        first: String,
+        second: String,
+    },
+    /// A row whose run index is not in 0..runs.
+    #[error("a row of run {run} came back, which is not a run of this campaign (0 to {})", runs.saturating_sub(1))]
+    Stray { run: u64, runs: u64 },
+}
+
+/// The runs `missing` as text: ranges of consecutive runs (`3, 7-9`), at
+/// most 20 of them, then how many more.
+pub fn list_runs(missing: &[u64]) -> String {
+    let mut ranges: Vec<(u64, u64)> = Vec::new();
+    for &k in missing {
+        match ranges.last_mut() {
+            Some((_, hi)) if *hi + 1 == k => *hi = k,
+            _ => ranges.push((k, k)),
+        }
+    }
+    let mut text: Vec<String> = ranges
+        .iter()
+        .take(20)
+        .map(|&(lo, hi)| {
+            if lo == hi {
+                lo.to_string()
+            } else {
+                format!("{lo}-{hi}")
+            }
+        })
+        .collect();
+    if ranges.len() > 20 {
+        text.push(format!("... ({} runs in all)", missing.len()));
+    }
+    text.join(", ")
+}
+
+/// The rows of a campaign of `runs` runs, accounted for: one row per run in
+/// run order, and the runs that did not come back.
+#[derive(Debug, Clone)]
+pub struct Accounted {
+    pub rows: Vec<RunRow>,
+    pub missing: Vec<u64>,
+}
+
+impl Accounted {
+    /// The rows if every run came back, else [`CampaignError::Missing`].
+    pub fn complete(self, runs: u64) -> Result<Vec<RunRow>, CampaignError> {
+        if self.missing.is_empty() {
+            Ok(self.rows)
+        } else {
+            Err(CampaignError::Missing {
+                runs,
+                missing: self.missing,
+            })
+        }
+    }
+}
+
+/// Account for every run of a campaign of `runs` runs: each index in
+/// 0..runs must come back exactly once. A second row of a run equal to the
+/// first (runs are deterministic from the seed, but for
+/// [`TIMING_COLUMNS`]) is dropped; one that differs is
+/// [`CampaignError::Conflict`], a run outside 0..runs
+/// [`CampaignError::Stray`]. The rows come back in run order, with the
+/// runs that are missing.
+pub fn account(
+    rows: impl IntoIterator<Item = RunRow>,
+    runs: u64,
+) -> Result<Accounted, CampaignError> {
+    let mut rows: Vec<RunRow> = rows.into_iter().collect();
+    if let Some(r) = rows.iter().find(|r| r.run >= runs) {
+        return Err(CampaignError::Stray { run: r.run, runs });
+    }
+    // Stable: the first delivery of a run stays first.
+    rows.sort_by_key(|r| r.run);
+    let mut unique: Vec<RunRow> = Vec::with_capacity(rows.len());
+    for r in rows {
+        match unique.last() {
+            Some(first) if first.run == r.run => {
+                if let Some((column, a, b)) = first.differs_from(&r) {
+                    return Err(CampaignError::Conflict {
+                        run: r.run,
+                        column,
+                        first: a,
+                        second: b,
+                    });
+                }
+            }
+            _ => unique.push(r),
+        }
+    }
+    let mut missing = Vec::new();
+    let mut next = 0;
+    for r in &unique {
+        missing.extend(next..r.run);
+        next = r.run + 1;
+    }
+    missing.extend(next..runs);
+    Ok(Accounted {
+        rows: unique,
+        missing,
+    })
+}
+
 /// Percentiles p50/p95/p99/max by the nearest-rank rule.
 pub fn percentiles(values: &[f64]) -> Value {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
@@ -425,5 +565,66 @@ mod tests {
         assert!(err.contains("time_s"), "{err}");
         let short = RunRow::from_cells(&cells[..1], vec![], TouchdownLimits::default());
         assert!(short.unwrap_err().contains("outcome"));
+    }
+
+    fn row(run: u64) -> RunRow {
+        let mut r = sample_row();
+        r.run = run;
+        r.fuel_kg = f64::NAN; // NaN equals NaN in the accounting
+        r
+    }
+
+    #[test]
+    fn every_run_is_accounted_for_once() {
+        // Run 3 twice (the second with other wall-clock cells: dropped),
+        // runs 1 and 5 to 7 missing.
+        let mut late = row(3);
+        late.max_replan_ms += 1.0;
+        late.late_replans += 1;
+        let rows = vec![row(4), row(3), row(0), late, row(2)];
+        let a = account(rows, 8).unwrap();
+        let runs: Vec<u64> = a.rows.iter().map(|r| r.run).collect();
+        assert_eq!(runs, [0, 2, 3, 4]);
+        assert_eq!(
+            a.rows[2].max_replan_ms,
+            row(3).max_replan_ms,
+            "the first kept"
+        );
+        assert_eq!(a.missing, [1, 5, 6, 7]);
+        let err = a.complete(8).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "4 of the campaign's 8 runs did not come back: runs 1, 5-7"
+        );
+        assert!(account((0..3).map(row), 3).unwrap().complete(3).is_ok());
+    }
+
+    #[test]
+    fn a_differing_duplicate_or_a_stray_run_is_an_error() {
+        let mut other = row(1);
+        other.x_error_m = 9.5;
+        let err = account(vec![row(0), row(1), other], 2).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                CampaignError::Conflict {
+                    run: 1,
+                    column: "x_error_m",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert!(err.to_string().contains("x_error_m = "), "{err}");
+        let err = account(vec![row(0), row(2)], 2).unwrap_err();
+        assert_eq!(err, CampaignError::Stray { run: 2, runs: 2 });
+    }
+
+    #[test]
+    fn long_lists_of_runs_are_cut() {
+        let every_other: Vec<u64> = (0..100).map(|k| 2 * k).collect();
+        let text = list_runs(&every_other);
+        assert!(text.starts_with("0, 2, 4"), "{text}");
+        assert!(text.ends_with("... (100 runs in all)"), "{text}");
     }
 }

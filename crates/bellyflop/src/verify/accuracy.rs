@@ -28,13 +28,18 @@ pub fn check(scenario: &Scenario, settings: &SolverSettings, sol: &mut Solution)
         settings.landing_velocity_tolerance_mps,
     );
     let n = sol.nodes;
+    let more_nodes = format!(
+        "use more nodes (discretization.nodes or --nodes, e.g. {}) or an hp mesh of several intervals (discretization.intervals or --intervals)",
+        (2 * n).min(100)
+    );
     let remedy = if sol.controls_flown.is_some() {
         "the polished controls should land within micrometres: please report this state".to_string()
+    } else if settings.polish {
+        // The polish ran and could not make these controls fly: advising it
+        // again would send the user round in a circle.
+        format!("the collocation meets the dynamics only at its N = {n} nodes and the polish could not make its controls fly; {more_nodes}")
     } else {
-        format!(
-        "the collocation meets the dynamics only at its N = {n} nodes: polish the answer (solver.polish = true, the default; without --fast), or use more nodes (discretization.nodes or --nodes, e.g. {}) or an hp mesh of several intervals (discretization.intervals or --intervals)",
-        (2 * n).min(100)
-    )
+        format!("the collocation meets the dynamics only at its N = {n} nodes: polish the answer (solver.polish = true, the default; without --fast), or {more_nodes}")
     };
     let controls = if sol.controls_flown.is_some() {
         "the flown controls re-integrated (DOP853)"
