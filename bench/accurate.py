@@ -21,6 +21,7 @@ Times are each solver's own: the median of R solves in one process
 
     bench/reference/.venv/bin/python bench/accurate.py                 # all 151 states
     bench/reference/.venv/bin/python bench/accurate.py --box 5 --wide 2 --table
+    bench/reference/.venv/bin/python bench/accurate.py --bin OTHER/bellyflop   # another build, same states
 
 The fine-mesh reference is slow (seconds per state) and not timed: with
 --fine FILE its masses are read from FILE when it exists, else computed and
@@ -46,8 +47,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from envelope import BIN, PY, REF, ROOT, scenario_text, states  # noqa: E402
 
 
-def run_ours(path, repeat, fast=False):
-    cmd = [str(BIN), "solve", "--scenario", str(path), "--json", "--quiet", "--repeat", str(repeat)]
+def run_ours(path, repeat, fast=False, binary=BIN):
+    cmd = [str(binary), "solve", "--scenario", str(path), "--json", "--quiet", "--repeat", str(repeat)]
     if fast:
         cmd.append("--fast")
     return json.loads(subprocess.run(cmd, capture_output=True, text=True).stdout)
@@ -141,6 +142,7 @@ def main():
     ap.add_argument("--table", action="store_true", help="one line per state")
     ap.add_argument("--save", metavar="JSON", help="write every state's numbers")
     ap.add_argument("--fine", metavar="JSON", help="cache of the fine-mesh reference's answers")
+    ap.add_argument("--bin", default=str(BIN), help="the bellyflop binary to time (another build, same states)")
     ap.add_argument("--fine-only", action="store_true", help="compute the fine reference (into --fine) and stop")
     args = ap.parse_args()
     if not BIN.exists():
@@ -166,8 +168,8 @@ def main():
             fine = cache[key]
             if args.fine_only:
                 continue
-            ours = run_ours(path, args.repeat)
-            fast = run_ours(path, args.repeat, fast=True)
+            ours = run_ours(path, args.repeat, binary=args.bin)
+            fast = run_ours(path, args.repeat, fast=True, binary=args.bin)
             ipopt = run_ipopt(path, args.repeat)
             flown = ours.get("controls_flown")
             sp = scipy_landing(sc, flown) if flown else (math.nan, math.nan, math.nan)
@@ -178,7 +180,8 @@ def main():
                        pos=le.get("position_m", math.nan), vel=le.get("velocity_mps", math.nan),
                        sp_pos=sp[0], sp_vel=sp[1], sp_mf=sp[2],
                        ipopt_ok=ipopt["success"], ipopt_ms=ipopt["solve_time_ms"], ipopt_mf=ipopt["final_mass_kg"],
-                       fine_ok=fine["success"], fine_mf=fine["final_mass_kg"])
+                       fine_ok=fine["success"], fine_mf=fine["final_mass_kg"],
+                       polish_iterations=(ours.get("polish") or {}).get("iterations"))
             rows.append(row)
             if args.table:
                 print(f"{name:7s} {row['status']:12s} {row['ms']:6.1f} ms (raw {row['fast_ms']:5.1f}, IPOPT "
@@ -229,6 +232,14 @@ def summarize(rows):
           f"total {sum(ip) / 1e3:.2f} s")
     print(f"IPOPT N = 20 total / ours accurate total: {sum(ip) / sum(ms):.2f}x; ours accurate / ours raw: "
           f"{sum(ms) / sum(fast):.2f}x")
+    ratios = [r["ipopt_ms"] / r["ms"] for r in rows if not math.isnan(r["ipopt_ms"]) and r["ms"] > 0]
+    if ratios:
+        print(f"IPOPT N = 20 / ours accurate, state by state: median {statistics.median(ratios):.2f}x, "
+              f"min {min(ratios):.2f}x, at least 1.5x on {sum(1 for x in ratios if x >= 1.5)}/{len(ratios)}")
+    its = [r["polish_iterations"] for r in rows if r.get("polish_iterations") is not None]
+    if its:
+        print(f"polish iterations: median {statistics.median(its):g}, max {max(its)}, at the cap (30) on "
+              f"{sum(1 for i in its if i >= 30)}/{len(its)}")
 
 
 if __name__ == "__main__":

@@ -123,7 +123,8 @@ def main():
                                  capture_output=True, text=True).stdout
             sol = json.loads(out)
             row = dict(name=name, state=state, status=sol["status"], message=sol.get("message", ""),
-                       ms=sol["solve_time_ms"], mf=sol["final_mass_kg"])
+                       ms=sol["solve_time_ms"], mf=sol["final_mass_kg"],
+                       polish_iterations=(sol.get("polish") or {}).get("iterations"))
             if sol["status"] == "solved":
                 row.update(judge(sc, sol["controls_flown"]))
             rows.append(row)

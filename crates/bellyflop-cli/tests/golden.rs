@@ -22,8 +22,9 @@ use serde_json::Value;
 
 /// Keys whose values are wall-clock times, or flags and counts derived from
 /// them (a re-plan is `late` when its solve took longer than its period).
-const WALL_CLOCK: [&str; 9] = [
+const WALL_CLOCK: [&str; 10] = [
     "solve_time_ms",
+    "time_ms",
     "total_time_ms",
     "ms",
     "solve_ms",

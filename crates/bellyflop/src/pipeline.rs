@@ -127,7 +127,7 @@ fn polish_answer(scenario: &Scenario, sol: &mut Solution) {
     let outcome = polish::polish(scenario, sol)
         .map_err(|e| e.to_string())
         .and_then(|p| {
-            let ms = p.time_ms;
+            let ms = p.report.time_ms;
             polish::publish::publish(scenario, sol, p)
                 .map(|()| ms)
                 .map_err(|e| format!("its controls could not be integrated ({e})"))

@@ -114,6 +114,37 @@ pub struct DirectIteration {
     pub ms: f64,
 }
 
+/// One iteration of the polish ([`crate::polish`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PolishIteration {
+    pub iteration: usize,
+    /// Final mass of the shot at the iterate \[kg\].
+    pub final_mass_kg: f64,
+    /// Σ|r̂| of the scaled terminal residual at the iterate (1 ↔ 1 m).
+    pub residual: f64,
+    /// Its path violation (ground \[m\] or dry mass \[kg\]).
+    pub path_violation: f64,
+    /// The mass the QP's step would gain, to first order \[kg\].
+    pub predicted_gain_kg: f64,
+    /// Actual over predicted decrease of the merit (NaN, JSON null, on the
+    /// last iteration, which stops before judging a step).
+    pub rho: f64,
+    pub accepted: bool,
+    /// The proximal weight ε of the QP.
+    pub proximal_weight: f64,
+    pub qp_iterations: u32,
+}
+
+/// The polish's own account: its iterations, the QPs' interior-point
+/// iterations, and its time (JSON `polish`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct PolishReport {
+    pub iterations: usize,
+    pub qp_iterations: u32,
+    pub time_ms: f64,
+    pub history: Vec<PolishIteration>,
+}
+
 /// The iterations of a solve, in order: SCvx's or the direct method's (a
 /// solve runs one method; each list is empty for the other).
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
@@ -291,6 +322,9 @@ pub struct Solution {
     /// node arrays sample their trajectory.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub controls_flown: Option<FlownControls>,
+    /// The polish's iterations, when it ran and its answer was published.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub polish: Option<PolishReport>,
     /// The path constraints along the flight, in continuous time, of a
     /// `solved` or `inaccurate` answer ([`crate::verify::path`]).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -404,6 +438,7 @@ impl Solution {
             history: History::default(),
             refinement: None,
             controls_flown: None,
+            polish: None,
             path: None,
             trajectory: Trajectory {
                 x: Vec::new(),

@@ -121,3 +121,41 @@ fn the_checks_of_a_polished_answer_are_its_own() {
         c.max_defect
     );
 }
+
+/// A polished answer carries the polish's own account: one record per
+/// iteration, each judged step but the last with its ratio, the QPs'
+/// iterations summing to at most the total (the projection's come first),
+/// and the last iterate's shot landing where the published flight lands
+/// (the corrections after the loop move it by less than a gram).
+#[test]
+fn a_polished_answer_reports_its_iterations() {
+    let scenario = ground_skimmer();
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    assert_eq!(sol.status, Status::Solved, "{}", sol.message);
+    let report = sol
+        .polish
+        .as_ref()
+        .expect("a polished answer has its report");
+    assert_eq!(report.history.len(), report.iterations);
+    assert!(report.iterations >= 1);
+    let (last, judged) = report.history.split_last().unwrap();
+    assert!(last.rho.is_nan());
+    assert!(judged.iter().all(|h| h.rho.is_finite()));
+    let per_iteration: u32 = report.history.iter().map(|h| h.qp_iterations).sum();
+    assert!(per_iteration > 0 && per_iteration <= report.qp_iterations);
+    assert!(
+        (last.final_mass_kg - sol.final_mass_kg).abs() < 1e-3,
+        "{} against {}",
+        last.final_mass_kg,
+        sol.final_mass_kg
+    );
+    let raw = bellyflop::solve(
+        &scenario,
+        &SolverSettings {
+            polish: false,
+            ..SolverSettings::default()
+        },
+        &mut Silent,
+    );
+    assert!(raw.polish.is_none());
+}

@@ -37,7 +37,7 @@ use crate::polish::subproblem::{
     linear_rows, Qp, Scales, Terminal, MASS_SCALE_KG, RESIDUAL_SCALE, SLACK_WEIGHT,
 };
 use crate::problem::dynamics::Model;
-use crate::solution::Solution;
+use crate::solution::{PolishIteration, PolishReport, Solution};
 
 /// Iteration limit of the polish.
 pub const MAX_ITERATIONS: usize = 30;
@@ -112,10 +112,8 @@ pub struct Polished {
     pub controls: FlownControls,
     /// The shot's (x, z, Vx, Vz, θ, w, m) at t_f.
     pub final_state: [f64; 7],
-    pub iterations: usize,
-    /// The interior point's iterations over every QP.
-    pub qp_iterations: u32,
-    pub time_ms: f64,
+    /// Its iterations, the QPs' and its time.
+    pub report: PolishReport,
 }
 
 /// What stays fixed during a polish.
@@ -223,7 +221,8 @@ pub fn polish(scenario: &Scenario, sol: &Solution) -> Result<Polished, PolishErr
     };
     let mut qp_iterations = 0;
     let mut p = project(&problem, &p, &mut qp_iterations)?;
-    let (iterations, shot) = iterate(&problem, &mut p, &mut qp_iterations)?;
+    let mut history = Vec::new();
+    let (iterations, shot) = iterate(&problem, &mut p, &mut qp_iterations, &mut history)?;
     let y = shot.y;
     let e = crate::verify::propagate::landing_error(scenario, &y);
     if problem.residual(&y).iter().map(|r| r.abs()).sum::<f64>() > 10.0 * RESIDUAL_TOLERANCE {
@@ -242,9 +241,12 @@ pub fn polish(scenario: &Scenario, sol: &Solution) -> Result<Polished, PolishErr
     Ok(Polished {
         controls: flown(&problem.layout, &p),
         final_state: y,
-        iterations,
-        qp_iterations,
-        time_ms: clock.elapsed().as_secs_f64() * 1e3,
+        report: PolishReport {
+            iterations,
+            qp_iterations,
+            time_ms: clock.elapsed().as_secs_f64() * 1e3,
+            history,
+        },
     })
 }
 
@@ -283,6 +285,7 @@ fn iterate(
     problem: &Problem,
     p: &mut Vec<f64>,
     qp_iterations: &mut u32,
+    history: &mut Vec<PolishIteration>,
 ) -> Result<(usize, Shot), PolishError> {
     let mut weight = PROXIMAL_INITIAL;
     let mut sens = shooting::sensitivity(&problem.model, &problem.layout, problem.y0, p);
@@ -297,6 +300,7 @@ fn iterate(
         }
         let (terminal, gradient) = linearize(problem, &sens);
         let path = problem.path_rows(&sens, &watch);
+        let before_qp = *qp_iterations;
         let step = qp(
             problem,
             p,
@@ -315,6 +319,17 @@ fn iterate(
                 + penalty(linear_residual(&terminal, &step.dp))
                 + SLACK_WEIGHT * linear_path(shot.path, &path, &step.dp));
         let residual: f64 = problem.residual(&y).iter().map(|r| r.abs()).sum();
+        history.push(PolishIteration {
+            iteration,
+            final_mass_kg: y[6],
+            residual,
+            path_violation: shot.path,
+            predicted_gain_kg: gain * MASS_SCALE_KG,
+            rho: f64::NAN,
+            accepted: false,
+            proximal_weight: weight,
+            qp_iterations: *qp_iterations - before_qp,
+        });
         if residual < RESIDUAL_TOLERANCE
             && shot.path <= PATH_TOLERANCE
             && gain * MASS_SCALE_KG < MASS_TOLERANCE_KG
@@ -333,6 +348,11 @@ fn iterate(
             qp_iterations,
         );
         let rho = actual / predicted.max(f64::MIN_POSITIVE);
+        if let Some(last) = history.last_mut() {
+            last.rho = rho;
+            last.accepted = rho > 0.0;
+            last.qp_iterations = *qp_iterations - before_qp;
+        }
         if rho > 0.0 {
             *p = candidate;
             sens = shooting::sensitivity(&problem.model, &problem.layout, problem.y0, p);
@@ -429,8 +449,8 @@ fn linear_path(current: f64, rows: &[(Vec<(usize, f64)>, f64)], dp: &[f64]) -> f
     }
 }
 
-/// One QP of the iteration at p (with the bounds also at the extrema of
-/// `also`, [`subproblem::bound_rows`]).
+/// One QP of the iteration at p with the proximal weight ε (with the
+/// bounds also at the extrema of `also`, [`subproblem::bound_rows`]).
 #[allow(clippy::too_many_arguments)]
 fn qp(
     problem: &Problem,

@@ -54,6 +54,7 @@ pub fn publish(
     rebuild_trajectory(sol);
     sol.checks = checks(scenario, &model, sol, &flown, &polished.final_state);
     sol.controls_flown = Some(flown);
+    sol.polish = Some(polished.report);
     Ok(())
 }
 

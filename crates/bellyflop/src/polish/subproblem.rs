@@ -209,6 +209,9 @@ pub struct Qp<'a> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Step {
     pub dp: Vec<f64>,
+    /// The multipliers of the six terminal rows (zero without them), in
+    /// the QP's convention: its Lagrangian adds λᵀ·(r̂ + J·S·Δp̂ − ν⁺ + ν⁻).
+    pub multipliers: [f64; 6],
     pub slack: f64,
     pub iterations: u32,
 }
@@ -265,12 +268,16 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
     }
     let answer = crate::polish::qp::solve(&crate::polish::qp::Problem {
         p: &diagonal,
+        dense: &[],
         q: &q,
         eq: &eq,
         le: &le,
     })
     .map_err(|e| e.to_string())?;
+    let at = qp.rows.eq.len();
+    let multipliers = std::array::from_fn(|i| if with_terminal { answer.y[at + i] } else { 0.0 });
     Ok(Step {
+        multipliers,
         slack: answer.x[n..path_slack].iter().sum(),
         dp: answer.x[..n].to_vec(),
         iterations: answer.iterations,
