@@ -75,7 +75,7 @@ pub fn solve(
     };
     let raw = (sol.status == Status::Solved && settings.polish).then(|| {
         let raw = sol.clone();
-        polish_answer(scenario, &mut sol);
+        polish_answer(scenario, settings, &mut sol);
         raw
     });
     check(scenario, settings, &mut sol);
@@ -123,8 +123,8 @@ fn fall_back(
 /// time joins `solve_time_ms`. When it fails, the raw collocation answer
 /// stays, the landing check judges it as it is, and the polish's failure
 /// joins the message (the check names the miss if it demotes the answer).
-fn polish_answer(scenario: &Scenario, sol: &mut Solution) {
-    let outcome = polish::polish(scenario, sol)
+fn polish_answer(scenario: &Scenario, settings: &SolverSettings, sol: &mut Solution) {
+    let outcome = polish::polish(scenario, sol, settings.polish_repairs)
         .map_err(|e| e.to_string())
         .and_then(|p| {
             let ms = p.report.time_ms;

@@ -135,14 +135,83 @@ pub struct PolishIteration {
     pub qp_iterations: u32,
 }
 
+/// One arc structure the polish flew: the collocation's, then each
+/// repaired one ([`crate::polish::repair`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PolishStructure {
+    /// Thrust segments (bound or free) of the structure.
+    pub segments: usize,
+    /// The polish's iterations on it.
+    pub iterations: usize,
+    /// Its answer's final mass \[kg\] (None: the polish failed on it).
+    pub final_mass_kg: Option<f64>,
+    /// Bound arcs its certificate found contradicted.
+    pub contradicted_arcs: Option<usize>,
+    /// Whether it is the published answer.
+    pub kept: bool,
+}
+
 /// The polish's own account: its iterations, the QPs' interior-point
 /// iterations, and its time (JSON `polish`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct PolishReport {
+    /// Iterations over every run (the first, and a repair's).
     pub iterations: usize,
+    /// Polishes on repaired arcs ([`crate::polish::repair`]).
+    pub repairs: usize,
+    /// Every structure flown, in order.
+    pub structures: Vec<PolishStructure>,
     pub qp_iterations: u32,
     pub time_ms: f64,
     pub history: Vec<PolishIteration>,
+}
+
+/// What the thrust does on one arc of a polished answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ThrustArcKind {
+    /// T = T_max.
+    Upper,
+    /// T = T_min.
+    Lower,
+    /// A cubic between the bounds.
+    Free,
+}
+
+/// One thrust arc of a polished answer and its switching function S_T
+/// along it, scaled by the flight's largest |S_T|
+/// ([`crate::polish::certificate`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ThrustArc {
+    pub t_start_s: f64,
+    pub t_end_s: f64,
+    pub kind: ThrustArcKind,
+    pub switching_min: f64,
+    pub switching_max: f64,
+    /// S_T at the arc's start (at a switch from another arc, ≈ 0 at an
+    /// optimum).
+    pub switching_at_start: f64,
+}
+
+/// The Pontryagin certificate of a polished answer (JSON `optimality`;
+/// [`crate::polish::certificate`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Optimality {
+    /// False where the ground or the dry mass is active (the costates
+    /// leave their multipliers out).
+    pub evaluated: bool,
+    /// Evaluated, and no bound arc's S_T has the wrong sign.
+    pub holds: bool,
+    /// Bound arcs whose S_T has the wrong sign.
+    pub contradicted_arcs: usize,
+    /// The flight's largest |S_T| (per newton, scaled by the mass scale).
+    pub switching_scale: f64,
+    pub thrust_arcs: Vec<ThrustArc>,
+    /// The terminal multipliers μ of the polish's last QP (x, z, Vx, Vz,
+    /// θ, w; in its scaled residuals), which give λ(t_f).
+    pub multipliers: [f64; 6],
+    /// The largest multiplier of its path rows.
+    pub path_multiplier: f64,
 }
 
 /// The iterations of a solve, in order: SCvx's or the direct method's (a
@@ -325,6 +394,9 @@ pub struct Solution {
     /// The polish's iterations, when it ran and its answer was published.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub polish: Option<PolishReport>,
+    /// The Pontryagin certificate of a polished answer.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub optimality: Option<Optimality>,
     /// The path constraints along the flight, in continuous time, of a
     /// `solved` or `inaccurate` answer ([`crate::verify::path`]).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -439,6 +511,7 @@ impl Solution {
             refinement: None,
             controls_flown: None,
             polish: None,
+            optimality: None,
             path: None,
             trajectory: Trajectory {
                 x: Vec::new(),

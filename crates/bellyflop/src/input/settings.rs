@@ -188,6 +188,13 @@ pub struct SolverSettings {
     /// line) returns the raw collocation answer, which the landing check
     /// then judges as it is.
     pub polish: bool,
+    /// Polishes on repaired arcs after the first, at most
+    /// ([`crate::polish::repair`]): where the answer's switching function
+    /// contradicts a thrust arc, a short arc of the other bound is seeded
+    /// there and the polish runs again, while each gains mass. Default 3;
+    /// 0 keeps the first structure (faster, kilograms heavier in fuel on
+    /// some states: BENCHMARKS.md, issue 35).
+    pub polish_repairs: usize,
     /// Largest re-integrated landing position error ‖(x, z)(t_f) − (x_f, z_f)‖
     /// of a `solved` answer \[m\] ([`crate::verify::accuracy`]); beyond it the status
     /// is `inaccurate`. Default 0.1 m: the polished answer lands within
@@ -229,6 +236,7 @@ impl Default for SolverSettings {
             thrust_margin_weight: 100.0,
             terminal_lateral_weight: 0.0,
             polish: true,
+            polish_repairs: 3,
             landing_position_tolerance_m: 0.1,
             landing_velocity_tolerance_mps: 0.05,
             refinement: RefinementSettings::default(),

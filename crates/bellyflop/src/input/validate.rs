@@ -137,6 +137,8 @@ const TF_GUESS: Range = Range::open_closed(0.0, 1000.0, "s");
 
 /// Iteration limit: at least one iteration, at most 10000.
 const MAX_ITERATIONS: (usize, usize) = (1, 10_000);
+/// Polishes on repaired arcs (`solver.polish_repairs`).
+pub const POLISH_REPAIRS: (usize, usize) = (0, 10);
 /// Iterations of the relaxed first phase: 0 (off) to 10000.
 const RELAXED_FIRST_ITERATIONS: (usize, usize) = (0, 10_000);
 /// Convergence tolerances on scaled quantities, and the accepted relaxation
@@ -418,6 +420,7 @@ pub(crate) fn mesh_layout(field: &str, mesh: &MeshLayout) -> Result<(), InputErr
 /// ordering (ρ0 < ρ1 < ρ2, r_min ≤ r_initial ≤ r_max).
 pub fn solver(s: &SolverSettings) -> Result<(), InputError> {
     count_in_range("solver.max_iterations", s.max_iterations, MAX_ITERATIONS)?;
+    count_in_range("solver.polish_repairs", s.polish_repairs, POLISH_REPAIRS)?;
     count_in_range(
         "solver.direct.max_iterations",
         s.direct.max_iterations,

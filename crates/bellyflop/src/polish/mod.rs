@@ -21,10 +21,13 @@
 //! by construction, and the durations cannot exploit a discretization: the
 //! integration resolves every segment to [`shooting::STEP_S`].
 
+pub mod adjoint;
 pub mod arcs;
+pub mod certificate;
 pub mod ground;
 pub mod publish;
 pub mod qp;
+pub mod repair;
 pub mod shooting;
 pub mod start;
 pub mod subproblem;
@@ -37,7 +40,7 @@ use crate::polish::subproblem::{
     linear_rows, Qp, Scales, Terminal, MASS_SCALE_KG, RESIDUAL_SCALE, SLACK_WEIGHT,
 };
 use crate::problem::dynamics::Model;
-use crate::solution::{PolishIteration, PolishReport, Solution};
+use crate::solution::{Optimality, PolishIteration, PolishReport, PolishStructure, Solution};
 
 /// Iteration limit of the polish.
 pub const MAX_ITERATIONS: usize = 30;
@@ -114,9 +117,12 @@ pub struct Polished {
     pub final_state: [f64; 7],
     /// Its iterations, the QPs' and its time.
     pub report: PolishReport,
+    /// The Pontryagin certificate ([`certificate`]).
+    pub optimality: Optimality,
 }
 
 /// What stays fixed during a polish.
+#[derive(Clone)]
 struct Problem {
     model: Model,
     layout: Layout,
@@ -203,8 +209,17 @@ impl Problem {
     }
 }
 
-/// Polish a `solved` collocation answer of `scenario` (module docs).
-pub fn polish(scenario: &Scenario, sol: &Solution) -> Result<Polished, PolishError> {
+/// Polish a `solved` collocation answer of `scenario` (module docs):
+/// polish on the collocation's arcs, certify ([`certificate`]), and while
+/// the switching function contradicts an arc, polish again on the repaired
+/// arcs ([`repair`]), keeping the heavier answer that lands (at most
+/// `max_repairs` times, `solver.polish_repairs`, and only while each
+/// gains).
+pub fn polish(
+    scenario: &Scenario,
+    sol: &Solution,
+    max_repairs: usize,
+) -> Result<Polished, PolishError> {
     let clock = std::time::Instant::now();
     let model = Model::new(&scenario.vehicle, &scenario.environment);
     let s0 = scenario.initial.state_si();
@@ -219,17 +234,71 @@ pub fn polish(scenario: &Scenario, sol: &Solution) -> Result<Polished, PolishErr
         layout,
         scales,
     };
-    let mut qp_iterations = 0;
-    let mut p = project(&problem, &p, &mut qp_iterations)?;
-    let mut history = Vec::new();
-    let (iterations, shot) = iterate(&problem, &mut p, &mut qp_iterations, &mut history)?;
-    let y = shot.y;
-    let e = crate::verify::propagate::landing_error(scenario, &y);
-    if problem.residual(&y).iter().map(|r| r.abs()).sum::<f64>() > 10.0 * RESIDUAL_TOLERANCE {
+    let mut report = PolishReport::default();
+    let mut best = run(&problem, &p, &mut report)?;
+    let mut kept = 0;
+    while best.optimality.contradicted_arcs > 0 && report.repairs < max_repairs {
+        let Some(other) = repaired(&problem, &best, &mut report) else {
+            break;
+        };
+        report.repairs += 1;
+        match other {
+            Some(other) if other.shot.y[6] > best.shot.y[6] => {
+                best = other;
+                kept = report.repairs;
+            }
+            _ => break,
+        }
+    }
+    if let Some(s) = report.structures.get_mut(kept) {
+        s.kept = true;
+    }
+    report.time_ms = clock.elapsed().as_secs_f64() * 1e3;
+    Ok(Polished {
+        controls: flown(&best.problem.layout, &best.p),
+        final_state: best.shot.y,
+        optimality: best.optimality,
+        report,
+    })
+}
+
+/// One polish on one arc structure: its problem, answer, shot and
+/// certificate.
+struct Run {
+    problem: Problem,
+    p: Vec<f64>,
+    shot: Shot,
+    optimality: Optimality,
+}
+
+/// Polish from p on `problem`'s segments: project, iterate, and check
+/// that the shot lands and keeps its path.
+fn run(problem: &Problem, p: &[f64], report: &mut PolishReport) -> Result<Run, PolishError> {
+    let before = report.iterations;
+    let outcome = run_on(problem, p, report);
+    report.structures.push(PolishStructure {
+        segments: problem.layout.segments.len(),
+        iterations: report.iterations - before,
+        final_mass_kg: outcome.as_ref().ok().map(|r| r.shot.y[6]),
+        contradicted_arcs: outcome
+            .as_ref()
+            .ok()
+            .map(|r| r.optimality.contradicted_arcs),
+        kept: false,
+    });
+    outcome
+}
+
+/// [`run`]'s work.
+fn run_on(problem: &Problem, p: &[f64], report: &mut PolishReport) -> Result<Run, PolishError> {
+    let mut p = project(problem, p, &mut report.qp_iterations)?;
+    let (iterations, shot, last) = iterate(problem, &mut p, report)?;
+    let (y, t) = (&shot.y, &problem.target);
+    if problem.residual(y).iter().map(|r| r.abs()).sum::<f64>() > 10.0 * RESIDUAL_TOLERANCE {
         return Err(PolishError::NotLanded {
             iterations,
-            position_m: e.position_m,
-            velocity_mps: e.velocity_mps,
+            position_m: (y[0] - t[0]).hypot(y[1] - t[1]),
+            velocity_mps: (y[2] - t[2]).hypot(y[3] - t[3]),
         });
     }
     if shot.path > PATH_TOLERANCE {
@@ -238,16 +307,39 @@ pub fn polish(scenario: &Scenario, sol: &Solution) -> Result<Polished, PolishErr
             violation: shot.path,
         });
     }
-    Ok(Polished {
-        controls: flown(&problem.layout, &p),
-        final_state: y,
-        report: PolishReport {
-            iterations,
-            qp_iterations,
-            time_ms: clock.elapsed().as_secs_f64() * 1e3,
-            history,
-        },
+    let optimality = certify(problem, &p, &last);
+    Ok(Run {
+        problem: problem.clone(),
+        p,
+        shot,
+        optimality,
     })
+}
+
+/// The polish on the arcs that the switching function of `first` asks
+/// for ([`repair`]), from its flown controls: None when it asks for
+/// nothing, Some(None) when the polish fails there.
+fn repaired(problem: &Problem, first: &Run, report: &mut PolishReport) -> Option<Option<Run>> {
+    let model = &problem.model;
+    let sw = switching(&first.problem, &first.p, &certificate_multipliers(first));
+    let arcs = repair::repaired(
+        &first.problem.layout,
+        &first.p,
+        &sw,
+        (model.min_thrust_n, model.max_thrust_n),
+        certificate::TOLERANCE,
+    )?;
+    let controls = flown(&first.problem.layout, &first.p);
+    let at = |t: f64| controls.at(t).unwrap_or((f64::NAN, f64::NAN, f64::NAN));
+    // Room for a seed to grow into an arc.
+    let (layout, p) = start::from_arcs(&arcs, |t| at(t).1, |t| at(t).0, start::MAX_SEGMENT_S);
+    let scales = Scales::new(&layout, model);
+    let next = Problem {
+        layout,
+        scales,
+        ..problem.clone()
+    };
+    Some(run(&next, &p, report).ok())
 }
 
 /// The nearest point to `p` that meets the linear constraints exactly (the
@@ -284,13 +376,20 @@ fn project(problem: &Problem, p: &[f64], qp_iterations: &mut u32) -> Result<Vec<
 fn iterate(
     problem: &Problem,
     p: &mut Vec<f64>,
-    qp_iterations: &mut u32,
-    history: &mut Vec<PolishIteration>,
-) -> Result<(usize, Shot), PolishError> {
+    report: &mut PolishReport,
+) -> Result<(usize, Shot, Multipliers), PolishError> {
+    let PolishReport {
+        qp_iterations,
+        history,
+        iterations: total,
+        ..
+    } = report;
+    let qp_iterations = &mut *qp_iterations;
     let mut weight = PROXIMAL_INITIAL;
     let mut sens = shooting::sensitivity(&problem.model, &problem.layout, problem.y0, p);
     let mut watch: Vec<usize> = Vec::new();
     let mut iteration = 0;
+    let mut last = Multipliers::default();
     while iteration < MAX_ITERATIONS {
         iteration += 1;
         let shot = problem.shot_of(&sens);
@@ -312,6 +411,10 @@ fn iterate(
             qp_iterations,
         )
         .map_err(|reason| PolishError::Subproblem { iteration, reason })?;
+        last = Multipliers {
+            terminal: step.multipliers,
+            path: step.path_multiplier,
+        };
         let phi = problem.merit(&shot);
         let gain: f64 = gradient.iter().zip(&step.dp).map(|(g, d)| g * d).sum();
         let predicted = phi
@@ -320,7 +423,7 @@ fn iterate(
                 + SLACK_WEIGHT * linear_path(shot.path, &path, &step.dp));
         let residual: f64 = problem.residual(&y).iter().map(|r| r.abs()).sum();
         history.push(PolishIteration {
-            iteration,
+            iteration: *total + iteration,
             final_mass_kg: y[6],
             residual,
             path_violation: shot.path,
@@ -333,7 +436,12 @@ fn iterate(
         if residual < RESIDUAL_TOLERANCE
             && shot.path <= PATH_TOLERANCE
             && gain * MASS_SCALE_KG < MASS_TOLERANCE_KG
-            && within_bounds(problem, p)
+            // Out of its bounds between the old extrema, where no step
+            // that the merit can accept takes it back (the model predicts
+            // no decrease): the corrections below do it. Without this the
+            // loop rejected steps to its cap, its ratio −1e302 as the
+            // predicted decrease went to zero (measured on the envelope).
+            && (within_bounds(problem, p) || predicted <= 0.0)
         {
             break;
         }
@@ -382,7 +490,54 @@ fn iterate(
         problem.shot_of(&sens),
         qp_iterations,
     );
-    Ok((iteration, shot))
+    *total += iteration;
+    Ok((iteration, shot, last))
+}
+
+/// The multipliers of the last QP of the iteration: its terminal rows',
+/// and the largest of its path rows'.
+#[derive(Debug, Clone, Copy, Default)]
+struct Multipliers {
+    terminal: [f64; 6],
+    path: f64,
+}
+
+/// A path multiplier above this (in the QP's scaled merit, where the
+/// mass gains 1 per tonne) counts as an active path row.
+const ACTIVE_PATH_MULTIPLIER: f64 = 1e-6;
+
+/// The switching functions along the shot of p ([`adjoint`]) with λ(t_f)
+/// = ∂Λ/∂y(t_f), Λ = −m_f/M + Σ μ_i·(y_i − y_f,i)/R_i at the last QP's
+/// multipliers.
+fn switching(problem: &Problem, p: &[f64], last: &Multipliers) -> adjoint::Switching {
+    let mut lambda_f = [0.0; 7];
+    for i in 0..6 {
+        lambda_f[i] = last.terminal[i] / RESIDUAL_SCALE[i];
+    }
+    lambda_f[6] = -1.0 / MASS_SCALE_KG;
+    adjoint::switching(&problem.model, &problem.layout, problem.y0, p, lambda_f)
+}
+
+/// The certificate of p ([`certificate`]) at the last QP's multipliers.
+fn certify(problem: &Problem, p: &[f64], last: &Multipliers) -> Optimality {
+    let sw = switching(problem, p, last);
+    let mut o = certificate::certify(
+        &problem.layout,
+        &sw,
+        problem.model.max_thrust_n,
+        last.path > ACTIVE_PATH_MULTIPLIER,
+    );
+    o.multipliers = last.terminal;
+    o.path_multiplier = last.path;
+    o
+}
+
+/// The multipliers a run's certificate was made with.
+fn certificate_multipliers(run: &Run) -> Multipliers {
+    Multipliers {
+        terminal: run.optimality.multipliers,
+        path: run.optimality.path_multiplier,
+    }
 }
 
 /// Whether p meets the bounds that are linear in it (not the QPs' margin

@@ -55,6 +55,7 @@ pub fn publish(
     sol.checks = checks(scenario, &model, sol, &flown, &polished.final_state);
     sol.controls_flown = Some(flown);
     sol.polish = Some(polished.report);
+    sol.optimality = Some(polished.optimality);
     Ok(())
 }
 

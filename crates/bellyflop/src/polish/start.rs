@@ -51,11 +51,31 @@ pub fn start(model: &Model, sol: &Solution) -> (Layout, Vec<f64>) {
         -chi,
         chi,
     );
-    let spans = cut(&merge(&thrust, &rate));
+    let delta = Interpolant::new(Interpolation::Pchip, &sol.t_s, &sol.delta_rad);
+    let profile = Profile::new(&sol.t_s, &sol.mesh.points, &sol.thrust_n, lo, hi);
+    from_arcs(
+        &merge(&thrust, &rate),
+        |t| delta.eval(t),
+        |t| profile.at(t),
+        0.0,
+    )
+}
+
+/// Segments and initial parameters for the thrust arcs `arcs` (each cut
+/// into segments of at most [`MAX_SEGMENT_S`]), with δ(t) and a free
+/// T(t) projected onto each segment's cubics. Each duration may grow to
+/// [`longest`] of its start, and at least to `room_s`.
+pub fn from_arcs(
+    arcs: &[Arc],
+    delta: impl Fn(f64) -> f64,
+    thrust: impl Fn(f64) -> f64,
+    room_s: f64,
+) -> (Layout, Vec<f64>) {
+    let spans = cut(arcs);
     let segments: Vec<Segment> = spans
         .iter()
         .map(|&(t0, t1, thrust)| {
-            let d_max_s = longest(t1 - t0);
+            let d_max_s = longest(t1 - t0).max(room_s);
             Segment {
                 thrust,
                 steps: (d_max_s / STEP_S).ceil() as usize,
@@ -65,15 +85,13 @@ pub fn start(model: &Model, sol: &Solution) -> (Layout, Vec<f64>) {
         })
         .collect();
     let layout = Layout::new(segments);
-    let delta = Interpolant::new(Interpolation::Pchip, &sol.t_s, &sol.delta_rad);
-    let thrust = Profile::new(&sol.t_s, &sol.mesh.points, &sol.thrust_n, lo, hi);
     let mut p = vec![0.0; layout.len];
     for (j, &(t0, t1, _)) in spans.iter().enumerate() {
         p[layout.duration(j)] = t1 - t0;
         let at = layout.delta(j);
-        p[at..at + NC].copy_from_slice(&project(|t| delta.eval(t), t0, t1));
+        p[at..at + NC].copy_from_slice(&project(&delta, t0, t1));
         if let Some(at) = layout.thrust(j) {
-            p[at..at + NC].copy_from_slice(&project(|t| thrust.at(t), t0, t1));
+            p[at..at + NC].copy_from_slice(&project(&thrust, t0, t1));
         }
     }
     (layout, p)
@@ -81,7 +99,7 @@ pub fn start(model: &Model, sol: &Solution) -> (Layout, Vec<f64>) {
 
 /// The thrust's arcs cut at every boundary of the rate's too, each span
 /// with the thrust's kind on it.
-fn merge(thrust: &[Arc], rate: &[Arc]) -> Vec<Arc> {
+pub fn merge(thrust: &[Arc], rate: &[Arc]) -> Vec<Arc> {
     let mut cuts: Vec<f64> = thrust
         .iter()
         .chain(rate)

@@ -212,6 +212,8 @@ pub struct Step {
     /// The multipliers of the six terminal rows (zero without them), in
     /// the QP's convention: its Lagrangian adds λᵀ·(r̂ + J·S·Δp̂ − ν⁺ + ν⁻).
     pub multipliers: [f64; 6],
+    /// The largest multiplier of the path rows (0: none active).
+    pub path_multiplier: f64,
     pub slack: f64,
     pub iterations: u32,
 }
@@ -254,6 +256,7 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
         })
         .cloned()
         .collect();
+    let path_rows = le.len()..le.len() + qp.path.len();
     for (terms, rhs) in qp.path {
         let mut terms = terms.clone();
         terms.push((path_slack, -1.0));
@@ -278,6 +281,7 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
     let multipliers = std::array::from_fn(|i| if with_terminal { answer.y[at + i] } else { 0.0 });
     Ok(Step {
         multipliers,
+        path_multiplier: answer.z[path_rows].iter().copied().fold(0.0, f64::max),
         slack: answer.x[n..path_slack].iter().sum(),
         dp: answer.x[..n].to_vec(),
         iterations: answer.iterations,
