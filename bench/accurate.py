@@ -181,7 +181,11 @@ def main():
                        sp_pos=sp[0], sp_vel=sp[1], sp_mf=sp[2],
                        ipopt_ok=ipopt["success"], ipopt_ms=ipopt["solve_time_ms"], ipopt_mf=ipopt["final_mass_kg"],
                        fine_ok=fine["success"], fine_mf=fine["final_mass_kg"],
-                       polish_iterations=(ours.get("polish") or {}).get("iterations"))
+                       polish_iterations=(ours.get("polish") or {}).get("iterations"),
+                       repairs=(ours.get("polish") or {}).get("repairs"),
+                       certificate=(None if not ours.get("optimality") else
+                                    ("holds" if ours["optimality"]["holds"] else
+                                     "contradicted" if ours["optimality"]["evaluated"] else "not evaluated")))
             rows.append(row)
             if args.table:
                 print(f"{name:7s} {row['status']:12s} {row['ms']:6.1f} ms (raw {row['fast_ms']:5.1f}, IPOPT "
@@ -220,9 +224,15 @@ def summarize(rows):
                   f"{sum(1 for g in gaps if abs(g) <= 1)}/{len(gaps)}, more than 1 kg above on "
                   f"{sum(1 for g in gaps if g > 1)}; raw N = 20 - fine: median {statistics.median(raw):+.2f} kg, "
                   f"min {min(raw):+.2f}, max {max(raw):+.2f}")
+            for verdict in ("holds", "contradicted", "not evaluated"):
+                g = [r["mf"] - r["fine_mf"] for r in both if r.get("certificate") == verdict and r["mf"] - r["fine_mf"] < 1]
+                if g:
+                    print(f"    certificate {verdict}: {len(g)} states (sound reference), ours - fine median "
+                          f"{statistics.median(g):+.2f} kg, within 0.5 kg on {sum(1 for v in g if v >= -0.5)}")
             for r, g in zip(both, gaps):
                 if abs(g) > 1:
-                    print(f"    {r['name']}: ours - fine {g:+.2f} kg (raw - fine {r['fast_mf'] - r['fine_mf']:+.2f})")
+                    print(f"    {r['name']}: ours - fine {g:+.2f} kg (raw - fine {r['fast_mf'] - r['fine_mf']:+.2f}; "
+                          f"certificate {r.get('certificate')}, repairs {r.get('repairs')})")
     ms = [r["ms"] for r in rows]
     fast = [r["fast_ms"] for r in rows]
     ip = [r["ipopt_ms"] for r in rows if not math.isnan(r["ipopt_ms"])]
