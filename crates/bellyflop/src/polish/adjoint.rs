@@ -21,9 +21,8 @@
 
 use num_dual::{Dual64, DualNum, DualSVec64};
 
-use crate::flown::legendre;
 use crate::polish::arcs::ArcKind;
-use crate::polish::shooting::{Layout, NC};
+use crate::polish::shooting::{polynomial, rk4_step, Layout, NC};
 use crate::problem::dynamics::{rhs_physical, Model};
 
 type D7 = DualSVec64<7>;
@@ -44,38 +43,40 @@ pub struct Switching {
 
 /// T(s) and δ(s) of segment j at s ∈ [0, 1].
 fn controls(layout: &Layout, p: &[f64], j: usize, s: f64) -> (f64, f64) {
-    let b = legendre(s);
-    let poly = |at: usize| (0..NC).map(|k| b[k] * p[at + k]).sum::<f64>();
     let thrust = match layout.segments[j].thrust {
         ArcKind::Bound(v) => v,
-        ArcKind::Free => poly(layout.thrust(j).expect("a free thrust has coefficients")),
+        ArcKind::Free => polynomial(&coefficients(p, thrust_at(layout, j)), s),
     };
-    (thrust, poly(layout.delta(j)))
+    (thrust, polynomial(&coefficients(p, layout.delta(j)), s))
 }
 
-/// One RK4 step of segment j from y at s with step h (in s), the
-/// controls read at the step's stages, in any dual number of the state.
+fn thrust_at(layout: &Layout, j: usize) -> usize {
+    layout.thrust(j).expect("a free thrust has coefficients")
+}
+
+fn coefficients(p: &[f64], at: usize) -> [f64; NC] {
+    std::array::from_fn(|k| p[at + k])
+}
+
+/// One step of the shot ([`rk4_step`]) of segment j from y at s, in any
+/// dual number of the state (the parameters are constants).
 fn rk4<T: DualNum<Primitive = f64> + Copy>(
     model: &Model,
     layout: &Layout,
     p: &[f64],
     j: usize,
-    y: [T; 7],
+    mut y: [T; 7],
     s: f64,
     h: f64,
 ) -> [T; 7] {
-    let d = p[layout.duration(j)];
-    let f = |y: &[T; 7], s: f64| {
-        let (t, delta) = controls(layout, p, j, s);
-        rhs_physical(model, y, T::from(t), T::from(delta)).map(|v| v * d)
+    let constant = |at: usize| coefficients(p, at).map(T::from);
+    let thrust = match layout.segments[j].thrust {
+        ArcKind::Bound(v) => Ok(v),
+        ArcKind::Free => Err(constant(thrust_at(layout, j))),
     };
-    let add =
-        |y: &[T; 7], k: &[T; 7], h: f64| -> [T; 7] { std::array::from_fn(|i| y[i] + k[i] * h) };
-    let k1 = f(&y, s);
-    let k2 = f(&add(&y, &k1, 0.5 * h), s + 0.5 * h);
-    let k3 = f(&add(&y, &k2, 0.5 * h), s + 0.5 * h);
-    let k4 = f(&add(&y, &k3, h), s + h);
-    std::array::from_fn(|i| y[i] + (k1[i] + (k2[i] + k3[i]) * 2.0 + k4[i]) * (h / 6.0))
+    let d = T::from(p[layout.duration(j)]);
+    rk4_step(model, &mut y, d, &constant(layout.delta(j)), &thrust, s, h);
+    y
 }
 
 /// The switching functions along the shot of p from y0, with λ(t_f) =
@@ -143,6 +144,7 @@ pub fn switching(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::flown::legendre;
     use crate::input::scenario::Scenario;
     use crate::polish::shooting::{sensitivity, Segment};
 

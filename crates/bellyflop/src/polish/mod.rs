@@ -269,6 +269,8 @@ struct Run {
     p: Vec<f64>,
     shot: Shot,
     optimality: Optimality,
+    /// The switching functions the certificate judged.
+    switching: adjoint::Switching,
 }
 
 /// Polish from p on `problem`'s segments: project, iterate, and check
@@ -307,12 +309,14 @@ fn run_on(problem: &Problem, p: &[f64], report: &mut PolishReport) -> Result<Run
             violation: shot.path,
         });
     }
-    let optimality = certify(problem, &p, &last);
+    let switching = switching(problem, &p, &last);
+    let optimality = certify(problem, &switching, &last);
     Ok(Run {
         problem: problem.clone(),
         p,
         shot,
         optimality,
+        switching,
     })
 }
 
@@ -321,11 +325,10 @@ fn run_on(problem: &Problem, p: &[f64], report: &mut PolishReport) -> Result<Run
 /// nothing, Some(None) when the polish fails there.
 fn repaired(problem: &Problem, first: &Run, report: &mut PolishReport) -> Option<Option<Run>> {
     let model = &problem.model;
-    let sw = switching(&first.problem, &first.p, &certificate_multipliers(first));
     let arcs = repair::repaired(
         &first.problem.layout,
         &first.p,
-        &sw,
+        &first.switching,
         (model.min_thrust_n, model.max_thrust_n),
         certificate::TOLERANCE,
     )?;
@@ -518,26 +521,18 @@ fn switching(problem: &Problem, p: &[f64], last: &Multipliers) -> adjoint::Switc
     adjoint::switching(&problem.model, &problem.layout, problem.y0, p, lambda_f)
 }
 
-/// The certificate of p ([`certificate`]) at the last QP's multipliers.
-fn certify(problem: &Problem, p: &[f64], last: &Multipliers) -> Optimality {
-    let sw = switching(problem, p, last);
+/// The certificate ([`certificate`]) of the switching functions `sw`,
+/// made with the last QP's multipliers.
+fn certify(problem: &Problem, sw: &adjoint::Switching, last: &Multipliers) -> Optimality {
     let mut o = certificate::certify(
         &problem.layout,
-        &sw,
+        sw,
         problem.model.max_thrust_n,
         last.path > ACTIVE_PATH_MULTIPLIER,
     );
     o.multipliers = last.terminal;
     o.path_multiplier = last.path;
     o
-}
-
-/// The multipliers a run's certificate was made with.
-fn certificate_multipliers(run: &Run) -> Multipliers {
-    Multipliers {
-        terminal: run.optimality.multipliers,
-        path: run.optimality.path_multiplier,
-    }
 }
 
 /// Whether p meets the bounds that are linear in it (not the QPs' margin

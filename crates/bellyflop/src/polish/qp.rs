@@ -1,16 +1,13 @@
 //! A dense primal–dual interior point for the polish's small QPs
 //! (Mehrotra's predictor–corrector; Nocedal & Wright, §16.6):
 //!
-//!   min ½·xᵀ·P·x + qᵀx   s.t.   A·x = b,   G·x + s = h,  s ≥ 0,
-//!
-//! P = diag(p) + B, B a dense symmetric positive semidefinite block on the
-//! leading variables (the polish's quasi-Newton Hessian; or none),
+//!   min ½·xᵀ·diag(p)·x + qᵀx   s.t.   A·x = b,   G·x + s = h,  s ≥ 0,
 //!
 //! with a few tens of variables, a few equality rows and a few hundred
 //! sparse inequality rows (bounds at grid points, the trust box, the
 //! slacks' signs). Each iteration eliminates s and the inequality duals z,
 //!
-//!   H·Δx + Aᵀ·Δy = r₁,   A·Δx = r₂,   H = P + Gᵀ·(Z/S)·G,
+//!   H·Δx + Aᵀ·Δy = r₁,   A·Δx = r₂,   H = diag(p) + Gᵀ·(Z/S)·G,
 //!
 //! forms H from the rows' sparse outer products, factors it and the Schur
 //! complement A·H⁻¹·Aᵀ by a dense Cholesky, and solves the predictor and
@@ -32,10 +29,6 @@ pub type Row = (Vec<(usize, f64)>, f64);
 pub struct Problem<'a> {
     /// The diagonal of P, ≥ 0 (its length is the number of variables).
     pub p: &'a [f64],
-    /// The dense block B of P on the first k variables, k × k and
-    /// symmetric (either triangle is read as the whole), k² entries; empty
-    /// for none.
-    pub dense: &'a [f64],
     pub q: &'a [f64],
     /// A·x = b.
     pub eq: &'a [Row],
@@ -216,8 +209,7 @@ impl Factors {
     /// Factor the Newton matrix for the weights w = z/s (module docs);
     /// false when H or the Schur complement is not numerically positive
     /// definite.
-    fn factor(&mut self, qp: &Scaled, w: &[f64], shift: f64) -> bool {
-        let (p, eq, le) = (qp.p, &qp.eq, &qp.le);
+    fn factor(&mut self, p: &[f64], eq: &[Row], le: &[Row], w: &[f64], shift: f64) -> bool {
         let n = self.n;
         self.shift = shift;
         self.kept.clear();
@@ -225,12 +217,6 @@ impl Factors {
         self.h.fill(0.0);
         for (i, pi) in p.iter().enumerate() {
             self.h[i * n + i] = *pi + shift;
-        }
-        let k = qp.k;
-        for c in 0..k {
-            for r in c..k {
-                self.h[c * n + r] += qp.dense[c * k + r];
-            }
         }
         for (k, ((terms, _), &wk)) in le.iter().zip(w).enumerate() {
             if wk > KEEP_WEIGHT && terms.len() > 1 {
@@ -384,29 +370,15 @@ struct Iterate {
 
 struct Scaled<'a> {
     p: &'a [f64],
-    /// B, k × k (module docs).
-    dense: &'a [f64],
-    k: usize,
     q: &'a [f64],
     eq: Vec<Row>,
     le: Vec<Row>,
 }
 
 impl Scaled<'_> {
-    /// out = P·x + add.
-    fn p_times(&self, x: &[f64], add: &[f64]) -> Vec<f64> {
-        let mut out: Vec<f64> = (0..self.p.len())
-            .map(|i| self.p[i] * x[i] + add[i])
-            .collect();
-        let k = self.k;
-        for (i, o) in out.iter_mut().enumerate().take(k) {
-            *o += dense::dot(&self.dense[i * k..(i + 1) * k], &x[..k]);
-        }
-        out
-    }
-
     fn residuals(&self, it: &Iterate) -> Residuals {
-        let mut dual = self.p_times(&it.x, self.q);
+        let n = self.p.len();
+        let mut dual: Vec<f64> = (0..n).map(|i| self.p[i] * it.x[i] + self.q[i]).collect();
         add_rows_transposed(&self.eq, &it.y, &mut dual);
         add_rows_transposed(&self.le, &it.z, &mut dual);
         let mut eq = vec![0.0; self.eq.len()];
@@ -455,7 +427,8 @@ impl Scaled<'_> {
         rc: &[f64],
         d: &Direction,
     ) -> (Residuals, Vec<f64>) {
-        let mut dual = self.p_times(&d.x, &r.dual);
+        let n = self.p.len();
+        let mut dual: Vec<f64> = (0..n).map(|i| self.p[i] * d.x[i] + r.dual[i]).collect();
         add_rows_transposed(&self.eq, &d.y, &mut dual);
         add_rows_transposed(&self.le, &d.z, &mut dual);
         let mut eq = vec![0.0; self.eq.len()];
@@ -552,16 +525,8 @@ pub fn solve(problem: &Problem) -> Result<Answer, QpError> {
         rows.iter()
             .all(|(t, b)| b.is_finite() && t.iter().all(|(_, v)| v.is_finite()))
     };
-    let k = (problem.dense.len() as f64).sqrt().round() as usize;
     if problem.q.len() != n
-        || k * k != problem.dense.len()
-        || k > n
-        || !problem
-            .p
-            .iter()
-            .chain(problem.q)
-            .chain(problem.dense)
-            .all(|v| v.is_finite())
+        || !problem.p.iter().chain(problem.q).all(|v| v.is_finite())
         || !finite(problem.eq)
         || !finite(problem.le)
     {
@@ -580,8 +545,6 @@ pub fn solve(problem: &Problem) -> Result<Answer, QpError> {
     let (le, le_scale) = scaled(problem.le);
     let qp = Scaled {
         p: problem.p,
-        dense: problem.dense,
-        k,
         q: problem.q,
         eq,
         le,
@@ -668,7 +631,7 @@ pub fn solve(problem: &Problem) -> Result<Answer, QpError> {
 fn factor(factors: &mut Factors, qp: &Scaled, w: &[f64]) -> bool {
     let mut shift = REGULARIZATION;
     while shift <= MAX_REGULARIZATION {
-        if factors.factor(qp, w, shift) {
+        if factors.factor(qp.p, &qp.eq, &qp.le, w, shift) {
             return true;
         }
         shift *= 100.0;
@@ -722,7 +685,6 @@ mod tests {
             .collect();
         let a = solve(&Problem {
             p: &p,
-            dense: &[],
             q: &q,
             eq: &[],
             le: &le,
@@ -737,7 +699,6 @@ mod tests {
         let eq = [((0..4).map(|i| (i, 1.0)).collect(), 0.5)];
         let a = solve(&Problem {
             p: &p,
-            dense: &[],
             q: &q,
             eq: &eq,
             le: &le,
@@ -750,8 +711,7 @@ mod tests {
         assert!((a.y[0] - -0.2).abs() < 1e-8, "{:?}", a.y);
     }
 
-    /// Random feasible QPs of the polish's shape (a proximal diagonal, on
-    /// half of them a dense block B = C·Cᵀ on the leading variables, LP
+    /// Random feasible QPs of the polish's shape (a proximal diagonal, LP
     /// slacks, sparse rows of mixed scales, a box) against Clarabel: the
     /// same objective within our stopping gap, and every row met.
     #[test]
@@ -768,18 +728,6 @@ mod tests {
                     } else {
                         0.0
                     }
-                })
-                .collect();
-            let k = if case % 2 == 1 {
-                rng.gen_range(1..=n)
-            } else {
-                0
-            };
-            let c: Vec<f64> = (0..k * k).map(|_| rng.gen_range(-1.0..1.0)).collect();
-            let dense: Vec<f64> = (0..k * k)
-                .map(|at| {
-                    let (i, j) = (at / k, at % k);
-                    (0..k).map(|l| c[i * k + l] * c[j * k + l]).sum::<f64>()
                 })
                 .collect();
             let q: Vec<f64> = (0..nv)
@@ -826,21 +774,16 @@ mod tests {
             }
             let ours = solve(&Problem {
                 p: &p,
-                dense: &dense,
                 q: &q,
                 eq: &eq,
                 le: &le,
             })
             .unwrap_or_else(|e| panic!("case {case}: {e}"));
-            let theirs = clarabel_solve(&p, &dense, &q, &eq, &le);
+            let theirs = clarabel_solve(&p, &q, &eq, &le);
             let objective = |x: &[f64]| {
-                let block: f64 = (0..k * k)
-                    .map(|at| 0.5 * dense[at] * x[at / k] * x[at % k])
-                    .sum();
-                block
-                    + (0..nv)
-                        .map(|i| 0.5 * p[i] * x[i] * x[i] + q[i] * x[i])
-                        .sum::<f64>()
+                (0..nv)
+                    .map(|i| 0.5 * p[i] * x[i] * x[i] + q[i] * x[i])
+                    .sum::<f64>()
             };
             // Ours stops at a mean complementarity of GAP_TOLERANCE, which
             // bounds its objective's excess over the optimum by m·GAP.
@@ -860,29 +803,14 @@ mod tests {
         }
     }
 
-    fn clarabel_solve(p: &[f64], dense: &[f64], q: &[f64], eq: &[Row], le: &[Row]) -> Vec<f64> {
+    fn clarabel_solve(p: &[f64], q: &[f64], eq: &[Row], le: &[Row]) -> Vec<f64> {
         use clarabel::algebra::CscMatrix;
         use clarabel::solver::{
             DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
         };
         let nv = p.len();
-        let k = (dense.len() as f64).sqrt().round() as usize;
-        // The upper triangle of diag(p) + B.
-        let (mut pr, mut pc, mut pv) = (vec![], vec![], vec![]);
-        for j in 0..nv {
-            for i in 0..=j {
-                let mut v = if i == j { p[i] } else { 0.0 };
-                if j < k {
-                    v += dense[i * k + j];
-                }
-                if v != 0.0 {
-                    pr.push(i);
-                    pc.push(j);
-                    pv.push(v);
-                }
-            }
-        }
-        let pm = CscMatrix::new_from_triplets(nv, nv, pr, pc, pv);
+        let diag: Vec<usize> = (0..nv).collect();
+        let pm = CscMatrix::new_from_triplets(nv, nv, diag.clone(), diag, p.to_vec());
         let (mut r, mut c, mut v, mut b) = (vec![], vec![], vec![], vec![]);
         for (k, (terms, rhs)) in eq.iter().chain(le).enumerate() {
             for &(col, a) in terms {
@@ -915,7 +843,6 @@ mod tests {
         assert_eq!(
             solve(&Problem {
                 p: &p,
-                dense: &[],
                 q: &q,
                 eq: &[],
                 le: &[]
@@ -927,7 +854,6 @@ mod tests {
         assert_eq!(
             solve(&Problem {
                 p: &p,
-                dense: &[],
                 q: &q,
                 eq: &[],
                 le: &le

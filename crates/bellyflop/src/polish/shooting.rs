@@ -99,6 +99,46 @@ impl Layout {
     }
 }
 
+/// A polynomial of the flown controls, Σ c_k·P̃_k(s).
+pub fn polynomial<T: DualNum<Primitive = f64> + Copy>(c: &[T; NC], s: f64) -> T {
+    let p = legendre(s);
+    let mut v = c[0] * p[0];
+    for k in 1..NC {
+        v += c[k] * p[k];
+    }
+    v
+}
+
+/// One classical RK4 step of dy/ds = d·f(y, T(s), δ(s)) from s to s + h,
+/// in place: the step of the polish's shot, shared by its sensitivities
+/// and its adjoint ([`crate::polish::adjoint`]), so that all three see the
+/// same discrete flight.
+pub fn rk4_step<T: DualNum<Primitive = f64> + Copy>(
+    model: &Model,
+    y: &mut [T; 7],
+    d: T,
+    a: &[T; NC],
+    thrust: &Result<f64, [T; NC]>,
+    s: f64,
+    h: f64,
+) {
+    let f = |y: &[T; 7], s: f64| -> [T; 7] {
+        let t = match thrust {
+            Ok(v) => T::from(*v),
+            Err(c) => polynomial(c, s),
+        };
+        let r = rhs_physical(model, y, t, polynomial(a, s));
+        r.map(|v| v * d)
+    };
+    let k1 = f(y, s);
+    let k2 = f(&add(y, &k1, 0.5 * h), s + 0.5 * h);
+    let k3 = f(&add(y, &k2, 0.5 * h), s + 0.5 * h);
+    let k4 = f(&add(y, &k3, h), s + h);
+    for i in 0..7 {
+        y[i] += (k1[i] + (k2[i] + k3[i]) * 2.0 + k4[i]) * (h / 6.0);
+    }
+}
+
 /// Integrate one segment from `y0` with duration `d`, δ coefficients `a`
 /// and thrust `thrust` (a bound, or coefficients).
 fn segment<T: DualNum<Primitive = f64> + Copy>(
@@ -110,33 +150,10 @@ fn segment<T: DualNum<Primitive = f64> + Copy>(
     steps: usize,
     mut on_step: impl FnMut(&[T; 7]),
 ) -> [T; 7] {
-    let eval = |c: &[T; NC], s: f64| -> T {
-        let p = legendre(s);
-        let mut v = c[0] * p[0];
-        for k in 1..NC {
-            v += c[k] * p[k];
-        }
-        v
-    };
-    let f = |y: &[T; 7], s: f64| -> [T; 7] {
-        let t = match &thrust {
-            Ok(v) => T::from(*v),
-            Err(c) => eval(c, s),
-        };
-        let r = rhs_physical(model, y, t, eval(&a, s));
-        r.map(|v| v * d)
-    };
     let h = 1.0 / steps as f64;
     let mut y = y0;
     for k in 0..steps {
-        let s = k as f64 * h;
-        let k1 = f(&y, s);
-        let k2 = f(&add(&y, &k1, 0.5 * h), s + 0.5 * h);
-        let k3 = f(&add(&y, &k2, 0.5 * h), s + 0.5 * h);
-        let k4 = f(&add(&y, &k3, h), s + h);
-        for i in 0..7 {
-            y[i] += (k1[i] + (k2[i] + k3[i]) * 2.0 + k4[i]) * (h / 6.0);
-        }
+        rk4_step(model, &mut y, d, &a, &thrust, k as f64 * h, h);
         on_step(&y);
     }
     y

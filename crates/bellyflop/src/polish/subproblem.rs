@@ -271,7 +271,6 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
     }
     let answer = crate::polish::qp::solve(&crate::polish::qp::Problem {
         p: &diagonal,
-        dense: &[],
         q: &q,
         eq: &eq,
         le: &le,
