@@ -10,16 +10,18 @@
 //! that the end state is a smooth function of p; the steps stay below
 //! [`STEP_S`] on the longest duration the segment may take.
 //!
-//! The derivatives come from forward-mode automatic differentiation through
-//! the RK4 steps (num-dual): per segment the end state's Jacobian against
-//! its start state, Φ_j (7 × 7), and against its own parameters, G_j. The
-//! chain ∂y(t_f)/∂p_j = Φ_J ⋯ Φ_{j+1}·G_j then costs 7 × 7 products.
+//! The derivatives are the RK4 steps' own (the discrete variational
+//! equations, stage by stage, with the model's Jacobian written out; the
+//! same numbers as forward-mode differentiation through [`rk4_step`], which
+//! the tests check): per segment the end state's Jacobian against its start
+//! state, Φ_j (7 × 7), and against its own parameters, G_j. The chain
+//! ∂y(t_f)/∂p_j = Φ_J ⋯ Φ_{j+1}·G_j then costs 7 × 7 products.
 
-use num_dual::{DualNum, DualSVec64};
+use num_dual::DualNum;
 
 use crate::flown::{legendre, DEGREE};
 use crate::polish::arcs::ArcKind;
-use crate::problem::dynamics::{rhs_physical, Model};
+use crate::problem::dynamics::{rhs_physical, rhs_physical_jacobian, Model};
 
 /// Largest RK4 step in time \[s\]. The landing check integrates the same
 /// controls by DOP853 at 1e-10; at 0.05 s the two ends agree to ~1e-4 m on
@@ -30,9 +32,8 @@ pub const STEP_S: f64 = 0.05;
 pub const NC: usize = DEGREE + 1;
 /// Most parameters of one segment: d, δ's coefficients, T's.
 pub const MAX_SEGMENT_PARAMS: usize = 1 + 2 * NC;
-/// Dual dimension: 7 start states and a segment's parameters.
+/// Local derivative columns: 7 start states and a segment's parameters.
 const ND: usize = 7 + MAX_SEGMENT_PARAMS;
-type D = DualSVec64<ND>;
 
 /// One segment of the polish.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -303,52 +304,40 @@ pub fn sensitivity(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> S
     let mut y = y0;
     let mut k = 0;
     for (j, seg) in layout.segments.iter().enumerate() {
-        let yd: [D; 7] = std::array::from_fn(|i| D::from_re(y[i]).derivative(i));
         let o = layout.offset[j];
-        let pd: Vec<D> = (0..seg.params())
-            .map(|k| D::from_re(p[o + k]).derivative(7 + k))
-            .collect();
+        let params = seg.params();
+        let local = |at: usize| coefficients(&p[o..], at);
         let thrust = match seg.thrust {
-            ArcKind::Free => Err(coefficients(&pd, 1 + NC)),
+            ArcKind::Free => Err(local(1 + NC)),
             ArcKind::Bound(v) => Ok(v),
         };
-        let h = p[o] / seg.steps as f64;
-        let end = segment(
+        let d = p[o];
+        let h = d / seg.steps as f64;
+        let (end, dend) = segment_sensitivity(
             model,
-            yd,
-            pd[0],
-            coefficients(&pd, 1),
+            y,
+            d,
+            local(1),
             thrust,
+            7 + params,
             seg.steps,
-            |ys| {
+            |ys, dys| {
                 k += 1;
-                track.push(ys[1].re, ys[3].re, h, j);
-                chain(&ys[1], &a, o, seg.params(), &mut dz[k * len..(k + 1) * len]);
-                chain(
-                    &ys[3],
-                    &a,
-                    o,
-                    seg.params(),
-                    &mut dvz[k * len..(k + 1) * len],
-                );
+                track.push(ys[1], ys[3], h, j);
+                chain(&dys[1], &a, o, params, &mut dz[k * len..(k + 1) * len]);
+                chain(&dys[3], &a, o, params, &mut dvz[k * len..(k + 1) * len]);
             },
         );
         let mut ph = [[0.0; 7]; 7];
         let mut gj = [[0.0; MAX_SEGMENT_PARAMS]; 7];
-        for (i, e) in end.iter().enumerate() {
-            y[i] = e.re;
-            if let Some(eps) = &e.eps.0 {
-                for c in 0..7 {
-                    ph[i][c] = eps[c];
-                }
-                for c in 0..seg.params() {
-                    gj[i][c] = eps[7 + c];
-                }
-            }
+        for i in 0..7 {
+            ph[i].copy_from_slice(&dend[i][..7]);
+            gj[i][..params].copy_from_slice(&dend[i][7..7 + params]);
         }
+        y = end;
         let mut next = vec![0.0; 7 * len];
-        for (i, e) in end.iter().enumerate() {
-            chain(e, &a, o, seg.params(), &mut next[i * len..(i + 1) * len]);
+        for (i, row) in dend.iter().enumerate() {
+            chain(row, &a, o, params, &mut next[i * len..(i + 1) * len]);
         }
         a = next;
         phi.push(ph);
@@ -375,15 +364,15 @@ pub fn sensitivity(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> S
     }
 }
 
-/// ∂v/∂p of a dual `v` of the current segment: its derivatives against the
-/// segment's start state through A, plus those against the segment's own
+/// ∂v/∂p of a value v of the current segment from its local derivatives
+/// `dv` (against the segment's start state, then its own parameters):
+/// through A for the start state, plus those against the segment's own
 /// `params` parameters at offset `o`.
-fn chain(v: &D, a: &[f64], o: usize, params: usize, out: &mut [f64]) {
+fn chain(dv: &[f64; ND], a: &[f64], o: usize, params: usize, out: &mut [f64]) {
     let len = out.len();
     out.fill(0.0);
-    let Some(eps) = &v.eps.0 else { return };
     for c in 0..7 {
-        let e = eps[c];
+        let e = dv[c];
         if e != 0.0 {
             for (o, a) in out.iter_mut().zip(&a[c * len..(c + 1) * len]) {
                 *o += e * a;
@@ -391,8 +380,122 @@ fn chain(v: &D, a: &[f64], o: usize, params: usize, out: &mut [f64]) {
         }
     }
     for c in 0..params {
-        out[o + c] += eps[7 + c];
+        out[o + c] += dv[7 + c];
     }
+}
+
+/// Local derivatives of a segment's state: ∂y/∂(y at the segment's start,
+/// its d, δ's coefficients, T's coefficients), 7 rows of [`ND`].
+type Local = [[f64; ND]; 7];
+
+/// One stage of [`segment_sensitivity`]: k = d·f(y, T(s), δ(s)) and its
+/// local derivatives kv = d·(f_y·yv + f_T·∂T/∂v + f_δ·∂δ/∂v) + f·∂d/∂v on
+/// the first `cols` columns, with f and its Jacobian written out
+/// ([`rhs_physical_jacobian`]). The value k is [`rk4_step`]'s to the bit.
+#[allow(clippy::too_many_arguments)]
+fn stage(
+    model: &Model,
+    y: &[f64; 7],
+    yv: &Local,
+    d: f64,
+    a: &[f64; NC],
+    thrust: &Result<f64, [f64; NC]>,
+    s: f64,
+    cols: usize,
+) -> ([f64; 7], Local) {
+    let basis = legendre(s);
+    let t = match thrust {
+        Ok(v) => *v,
+        Err(c) => polynomial(c, s),
+    };
+    let (f, jac) = rhs_physical_jacobian(model, y, t, polynomial(a, s));
+    let k = f.map(|v| v * d);
+    let mut kv = [[0.0; ND]; 7];
+    for c in 0..cols {
+        kv[0][c] = d * yv[2][c];
+        kv[1][c] = d * yv[3][c];
+        kv[4][c] = d * yv[5][c];
+        for r in [2, 3, 5] {
+            let j = &jac[r];
+            kv[r][c] = d * (j[2] * yv[2][c] + j[3] * yv[3][c] + j[4] * yv[4][c] + j[6] * yv[6][c]);
+        }
+    }
+    // The duration, then δ's coefficients, then T's.
+    for r in 0..7 {
+        kv[r][7] += f[r];
+    }
+    for (k, b) in basis.iter().enumerate() {
+        for r in [2, 3, 5] {
+            kv[r][8 + k] += d * jac[r][8] * b;
+        }
+        if thrust.is_err() {
+            for r in [2, 3, 5, 6] {
+                kv[r][8 + NC + k] += d * jac[r][7] * b;
+            }
+        }
+    }
+    (k, kv)
+}
+
+/// y + h·k and yv + h·kv (the first `cols` columns).
+fn advance(
+    y: &[f64; 7],
+    yv: &Local,
+    k: &[f64; 7],
+    kv: &Local,
+    h: f64,
+    cols: usize,
+) -> ([f64; 7], Local) {
+    let mut v = *yv;
+    for r in 0..7 {
+        for c in 0..cols {
+            v[r][c] += kv[r][c] * h;
+        }
+    }
+    (add(y, k, h), v)
+}
+
+/// [`segment`] with the local derivatives of its state carried through
+/// every RK4 stage (the discrete variational equations: the same
+/// derivatives as forward-mode differentiation of [`rk4_step`], whose
+/// values it reproduces to the bit), on the first `cols` columns (7 and
+/// the segment's parameters). Calls `on_step(y, yv)` after every step;
+/// returns the end state and its local derivatives.
+#[allow(clippy::too_many_arguments)]
+fn segment_sensitivity(
+    model: &Model,
+    y0: [f64; 7],
+    d: f64,
+    a: [f64; NC],
+    thrust: Result<f64, [f64; NC]>,
+    cols: usize,
+    steps: usize,
+    mut on_step: impl FnMut(&[f64; 7], &Local),
+) -> ([f64; 7], Local) {
+    let h = 1.0 / steps as f64;
+    let mut y = y0;
+    let mut yv = [[0.0; ND]; 7];
+    for (i, row) in yv.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    for step in 0..steps {
+        let s = step as f64 * h;
+        let (k1, k1v) = stage(model, &y, &yv, d, &a, &thrust, s, cols);
+        let (y2, y2v) = advance(&y, &yv, &k1, &k1v, 0.5 * h, cols);
+        let (k2, k2v) = stage(model, &y2, &y2v, d, &a, &thrust, s + 0.5 * h, cols);
+        let (y3, y3v) = advance(&y, &yv, &k2, &k2v, 0.5 * h, cols);
+        let (k3, k3v) = stage(model, &y3, &y3v, d, &a, &thrust, s + 0.5 * h, cols);
+        let (y4, y4v) = advance(&y, &yv, &k3, &k3v, h, cols);
+        let (k4, k4v) = stage(model, &y4, &y4v, d, &a, &thrust, s + h, cols);
+        for i in 0..7 {
+            y[i] += (k1[i] + (k2[i] + k3[i]) * 2.0 + k4[i]) * (h / 6.0);
+            for c in 0..cols {
+                yv[i][c] += (k1v[i][c] + (k2v[i][c] + k3v[i][c]) * 2.0 + k4v[i][c]) * (h / 6.0);
+            }
+        }
+        on_step(&y, &yv);
+    }
+    (y, yv)
 }
 
 fn identity() -> [[f64; 7]; 7] {
@@ -407,6 +510,61 @@ fn mul(a: &[[f64; 7]; 7], b: &[[f64; 7]; 7]) -> [[f64; 7]; 7] {
 mod tests {
     use super::*;
     use crate::input::scenario::Scenario;
+
+    /// The stage-by-stage derivatives of one segment are forward-mode
+    /// differentiation's through [`rk4_step`] (num-dual), to rounding,
+    /// and its values are the f64 step's to the bit.
+    #[test]
+    fn the_variational_steps_are_forward_differentiation() {
+        use num_dual::DualSVec64;
+        type D = DualSVec64<ND>;
+        let s = Scenario::paper();
+        let model = Model::new(&s.vehicle, &s.environment);
+        let y0 = [5.0, 800.0, 10.0, -80.0, 1.4, -0.1, 110_000.0];
+        let (d, a) = (2.3, [0.05, -0.02, 0.01, 0.004]);
+        let tc = [1.6e6, 2e5, -1e5, 3e4];
+        for thrust in [Ok(2.0e6), Err(tc)] {
+            let cols = 7 + 1 + NC + if thrust.is_err() { NC } else { 0 };
+            let (y, yv) = segment_sensitivity(&model, y0, d, a, thrust, cols, 23, |_, _| ());
+            let mut plain = y0;
+            for k in 0..23 {
+                rk4_step(
+                    &model,
+                    &mut plain,
+                    d,
+                    &a,
+                    &thrust,
+                    k as f64 / 23.0,
+                    1.0 / 23.0,
+                );
+            }
+            assert_eq!(y, plain);
+            let mut yd: [D; 7] = std::array::from_fn(|i| D::from_re(y0[i]).derivative(i));
+            let dd = D::from_re(d).derivative(7);
+            let ad: [D; NC] = std::array::from_fn(|k| D::from_re(a[k]).derivative(8 + k));
+            let td = thrust.map_err(|c| {
+                std::array::from_fn::<D, NC, _>(|k| D::from_re(c[k]).derivative(8 + NC + k))
+            });
+            for k in 0..23 {
+                rk4_step(&model, &mut yd, dd, &ad, &td, k as f64 / 23.0, 1.0 / 23.0);
+            }
+            for i in 0..7 {
+                let eps = yd[i].eps.0.unwrap_or_default();
+                // A derivative that cancels to rounding (∂m/∂ of T's odd
+                // coefficients) is judged against its row's size.
+                let row = eps.iter().map(|v| v.abs()).fold(0.0, f64::max);
+                for c in 0..ND {
+                    let want = if c < cols { eps[c] } else { 0.0 };
+                    let scale = want.abs().max(yv[i][c].abs()).max(1e-9 * row);
+                    assert!(
+                        (yv[i][c] - want).abs() <= 1e-11 * scale,
+                        "∂y{i}/∂v{c}: {} vs {want}",
+                        yv[i][c]
+                    );
+                }
+            }
+        }
+    }
 
     /// The sensitivities agree with central finite differences of
     /// [`shoot`] on every parameter.
