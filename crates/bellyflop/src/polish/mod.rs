@@ -21,6 +21,7 @@
 //! by construction, and the durations cannot exploit a discretization: the
 //! integration resolves every segment to [`shooting::STEP_S`].
 
+pub mod active_set;
 pub mod adjoint;
 pub mod arcs;
 pub mod certificate;
@@ -403,14 +404,15 @@ fn iterate(
         let (terminal, gradient) = linearize(problem, &sens);
         let path = problem.path_rows(&sens, &watch);
         let before_qp = *qp_iterations;
-        let step = qp(
+        let residual: f64 = problem.residual(&y).iter().map(|r| r.abs()).sum();
+        let step = bounded_step(
             problem,
             p,
             &terminal,
             &gradient,
             weight,
             &path,
-            None,
+            residual < NEAR_RESIDUAL,
             qp_iterations,
         )
         .map_err(|reason| PolishError::Subproblem { iteration, reason })?;
@@ -424,7 +426,6 @@ fn iterate(
             - (-y[6] / MASS_SCALE_KG - gain
                 + penalty(linear_residual(&terminal, &step.dp))
                 + SLACK_WEIGHT * linear_path(shot.path, &path, &step.dp));
-        let residual: f64 = problem.residual(&y).iter().map(|r| r.abs()).sum();
         history.push(PolishIteration {
             iteration: *total + iteration,
             final_mass_kg: y[6],
@@ -633,6 +634,58 @@ fn qp(
         p.len(),
     )?;
     *qp_iterations += step.iterations;
+    Ok(step)
+}
+
+/// The residual Σ|r̂| below which the iteration's steps keep their bounds
+/// at their own extrema ([`bounded_step`]): near the end, where the last
+/// accepted point is the answer (1 cm; farther out, a step's bulge is
+/// taken back by the next).
+const NEAR_RESIDUAL: f64 = 1e-2;
+
+/// The QP's step at p ([`qp`]); `near` the end, where the step's
+/// polynomials leave their bounds between the rows (their extrema moved
+/// with it), the QP again with rows at the step's extrema too, at most
+/// twice. The active-set method puts an active row exactly on its bound,
+/// so a step that ends on a bound at a grid point bulges past it between
+/// the points unless the new extrema carry rows.
+#[allow(clippy::too_many_arguments)]
+fn bounded_step(
+    problem: &Problem,
+    p: &[f64],
+    terminal: &Terminal,
+    gradient: &[f64],
+    weight: f64,
+    path: &[(Vec<(usize, f64)>, f64)],
+    near: bool,
+    qp_iterations: &mut u32,
+) -> Result<subproblem::Step, String> {
+    let mut step = qp(
+        problem,
+        p,
+        terminal,
+        gradient,
+        weight,
+        path,
+        None,
+        qp_iterations,
+    )?;
+    for _ in 0..2 * usize::from(near) {
+        let candidate = problem.moved(p, &step.dp);
+        if within_bounds(problem, &candidate) {
+            break;
+        }
+        step = qp(
+            problem,
+            p,
+            terminal,
+            gradient,
+            weight,
+            path,
+            Some(&candidate),
+            qp_iterations,
+        )?;
+    }
     Ok(step)
 }
 

@@ -113,10 +113,14 @@ pub enum QpError {
     Column { column: usize, n: usize },
     #[error("the QP's data are not finite")]
     Data,
+    #[error("the QP's rows are inconsistent: row {row} stays {residual:.2e} from its bound")]
+    Infeasible { row: usize, residual: f64 },
+    #[error("the QP's Hessian has a diagonal entry that is not positive")]
+    NotStrictlyConvex,
 }
 
 /// The rows scaled to a unit ∞-norm: (rows, their scales).
-fn scaled(rows: &[Row]) -> (Vec<Row>, Vec<f64>) {
+pub(crate) fn scaled(rows: &[Row]) -> (Vec<Row>, Vec<f64>) {
     rows.iter()
         .map(|(terms, rhs)| {
             let r = terms.iter().map(|(_, v)| v.abs()).fold(0.0, f64::max);
@@ -520,27 +524,8 @@ impl Direction {
 
 /// Solve one QP (module docs).
 pub fn solve(problem: &Problem) -> Result<Answer, QpError> {
+    validate(problem)?;
     let n = problem.p.len();
-    let finite = |rows: &[Row]| {
-        rows.iter()
-            .all(|(t, b)| b.is_finite() && t.iter().all(|(_, v)| v.is_finite()))
-    };
-    if problem.q.len() != n
-        || !problem.p.iter().chain(problem.q).all(|v| v.is_finite())
-        || !finite(problem.eq)
-        || !finite(problem.le)
-    {
-        return Err(QpError::Data);
-    }
-    if let Some(&(column, _)) = problem
-        .eq
-        .iter()
-        .chain(problem.le)
-        .flat_map(|(t, _)| t)
-        .find(|(c, _)| *c >= n)
-    {
-        return Err(QpError::Column { column, n });
-    }
     let (eq, eq_scale) = scaled(problem.eq);
     let (le, le_scale) = scaled(problem.le);
     let qp = Scaled {
@@ -623,6 +608,32 @@ pub fn solve(problem: &Problem) -> Result<Answer, QpError> {
         iterations,
         status,
     })
+}
+
+/// Check that the data are finite and every row names a variable.
+pub(crate) fn validate(problem: &Problem) -> Result<(), QpError> {
+    let n = problem.p.len();
+    let finite = |rows: &[Row]| {
+        rows.iter()
+            .all(|(t, b)| b.is_finite() && t.iter().all(|(_, v)| v.is_finite()))
+    };
+    if problem.q.len() != n
+        || !problem.p.iter().chain(problem.q).all(|v| v.is_finite())
+        || !finite(problem.eq)
+        || !finite(problem.le)
+    {
+        return Err(QpError::Data);
+    }
+    if let Some(&(column, _)) = problem
+        .eq
+        .iter()
+        .chain(problem.le)
+        .flat_map(|(t, _)| t)
+        .find(|(c, _)| *c >= n)
+    {
+        return Err(QpError::Column { column, n });
+    }
+    Ok(())
 }
 
 /// Factor the Newton matrix with weights `w`, the shift growing from

@@ -1,5 +1,6 @@
-//! One convex subproblem of the polish, a QP solved by our dense interior
-//! point ([`crate::polish::qp`]).
+//! One convex subproblem of the polish, a QP solved by our dense active-set
+//! method ([`crate::polish::active_set`]), or where it fails by our dense
+//! interior point ([`crate::polish::qp`]).
 //!
 //! In the scaled step Δp̂ (p = p_ref + S·Δp̂, S = [`Scales`]) and the
 //! terminal slacks ν⁺, ν⁻ ≥ 0:
@@ -34,6 +35,12 @@ pub const MASS_SCALE_KG: f64 = 1000.0;
 /// Weight of the terminal slacks (exact penalty; far above the multipliers
 /// of the terminal conditions in these scales).
 pub const SLACK_WEIGHT: f64 = 100.0;
+
+/// The slacks' curvature: a slack ν weighs w·ν + ½·γ·ν², so that the QP is
+/// strictly convex, as the active-set method needs
+/// ([`crate::polish::active_set`]). Its effect on a multiplier is γ·ν, below
+/// 1e-5 of w for every slack the polish sees (ν ≤ 10).
+pub const SLACK_CURVATURE: f64 = 1e-4;
 
 /// Weight ε of the proximal term (it keeps the QP strictly convex on the
 /// flat directions of the coefficients).
@@ -76,6 +83,14 @@ pub struct Rows {
 /// 1e-7 to 3.4e-7 of χ_max beyond it on 3 of 300 seeded states,
 /// `bench/safety.py`; at 1e-6, on none.)
 pub const BOUND_MARGIN: f64 = 1e-6;
+
+/// The gimbal rate's rows stand this many times [`BOUND_MARGIN`] inside
+/// their bound (1e-4 of χ_max, 0.002°/s). Where the rate rides its bound
+/// through the flip, each step moves the slope's extremum, and the
+/// active-set QP puts the rows exactly on their bounds: the shifted
+/// extremum then bulged past χ_max by up to 4e-5 of it on 6 of 300 seeded
+/// states (`bench/safety.py`), and those answers failed their checks.
+pub const RATE_MARGIN_FACTOR: f64 = 100.0;
 
 /// The constraints that are linear in p (module docs), at the point `p`:
 /// each bound at the [`GRID`] points of every segment and at the current
@@ -121,7 +136,7 @@ pub fn bound_rows(
         (terms, value)
     };
     let dmax = model.max_gimbal_rad * (1.0 - margin);
-    let chimax = model.max_gimbal_rate_radps * (1.0 - margin);
+    let chimax = model.max_gimbal_rate_radps * (1.0 - RATE_MARGIN_FACTOR * margin);
     let margin_t = margin * (model.max_thrust_n - model.min_thrust_n);
     let (tlo, thi) = (model.min_thrust_n + margin_t, model.max_thrust_n - margin_t);
     let last = layout.segments.len() - 1;
@@ -228,7 +243,7 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
     for (q, g) in q.iter_mut().zip(qp.mass_gradient).take(n) {
         *q = if with_terminal { -g } else { 0.0 };
     }
-    let mut diagonal = vec![0.0; nv];
+    let mut diagonal = vec![SLACK_CURVATURE; nv];
     diagonal[..n].fill(qp.proximal_weight);
     let mut eq: Vec<Row> = qp.rows.eq.clone();
     if let Some(t) = qp.terminal {
@@ -269,13 +284,16 @@ pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
     for i in n..nv {
         le.push((vec![(i, -1.0)], 0.0));
     }
-    let answer = crate::polish::qp::solve(&crate::polish::qp::Problem {
+    let problem = crate::polish::qp::Problem {
         p: &diagonal,
         q: &q,
         eq: &eq,
         le: &le,
-    })
-    .map_err(|e| e.to_string())?;
+    };
+    // The active-set method first; the interior point where it fails.
+    let answer = crate::polish::active_set::solve(&problem)
+        .or_else(|_| crate::polish::qp::solve(&problem))
+        .map_err(|e| e.to_string())?;
     let at = qp.rows.eq.len();
     let multipliers = std::array::from_fn(|i| if with_terminal { answer.y[at + i] } else { 0.0 });
     Ok(Step {
