@@ -11,7 +11,13 @@
 //! points are where z is lowest locally: every interior minimum of H below
 //! both ends, every step's end lower than both its neighbours, and every
 //! step's end below z_f, but the last (t_f, where the terminal conditions
-//! put z = z_f). Between two local minima z is monotone, so z ≥ z_f at
+//! put z = z_f). In the last step, a minimum less than
+//! [`GROUND_MARGIN_M`] below z(t_f) is left to the terminal conditions: it
+//! sits next to t_f, where z = z_f and Vz = 0 make it z_f to second order,
+//! and its row beside the terminal row of z is degenerate (the QP then
+//! split their multipliers arbitrarily, both at the slack's weight, and the
+//! certificate could not be evaluated; measured on the paper's case).
+//! Between two local minima z is monotone, so z ≥ z_f at
 //! these points is z ≥ z_f along the whole shot. A step that makes a new
 //! minimum below z_f elsewhere is judged by the merit, which counts v(p)
 //! over every point, and the polish then watches the step ends where it
@@ -62,7 +68,9 @@ fn points(
             track.vz_mps[k],
             track.h_s[k],
         );
-        if let Some((s, value)) = hermite_minimum(z0, v0, z1, v1, h) {
+        let minimum = hermite_minimum(z0, v0, z1, v1, h)
+            .filter(|&(_, value)| k < last || z1 - value > GROUND_MARGIN_M);
+        if let Some((s, value)) = minimum {
             match sens {
                 Some(sens) => {
                     let w = basis(s);
