@@ -390,6 +390,7 @@ fn iterate(
     } = report;
     let qp_iterations = &mut *qp_iterations;
     let mut weight = PROXIMAL_INITIAL;
+    let mut floor = PROXIMAL_MIN;
     let mut sens = shooting::sensitivity(&problem.model, &problem.layout, problem.y0, p);
     let mut watch: Vec<usize> = Vec::new();
     let mut iteration = 0;
@@ -473,13 +474,7 @@ fn iterate(
             // QP again with those rows, at the same weight.
             continue;
         }
-        weight = if rho < RHO_SHRINK {
-            weight * 4.0
-        } else if rho > RHO_GROW {
-            (weight / 2.0).max(PROXIMAL_MIN)
-        } else {
-            weight
-        };
+        (weight, floor) = next_weight(weight, floor, rho);
         if weight > PROXIMAL_MAX {
             break;
         }
@@ -636,6 +631,30 @@ fn qp(
     *qp_iterations += step.iterations;
     Ok(step)
 }
+
+/// The proximal weight after a step judged `rho` at `weight`, and the
+/// floor below which it does not halve: twice the last weight whose step
+/// was rejected, decaying by [`FLOOR_DECAY`] per accepted step. Without
+/// the floor, a creeping loop cycled accept (halve), reject (×4), accept:
+/// one QP and one shot in three were thrown away (the polish's history on
+/// the seeded envelope).
+fn next_weight(weight: f64, floor: f64, rho: f64) -> (f64, f64) {
+    if rho < RHO_SHRINK {
+        let floor = if rho <= 0.0 { 2.0 * weight } else { floor };
+        (weight * 4.0, floor)
+    } else {
+        let floor = (floor * FLOOR_DECAY).max(PROXIMAL_MIN);
+        let weight = if rho > RHO_GROW {
+            (weight / 2.0).max(floor)
+        } else {
+            weight
+        };
+        (weight, floor)
+    }
+}
+
+/// The decay per accepted step of [`next_weight`]'s floor.
+const FLOOR_DECAY: f64 = 0.8;
 
 /// The residual Σ|r̂| below which the iteration's steps keep their bounds
 /// at their own extrema ([`bounded_step`]): near the end, where the last
