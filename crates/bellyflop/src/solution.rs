@@ -151,8 +151,9 @@ pub struct PolishStructure {
     pub kept: bool,
 }
 
-/// The polish's own account: its iterations, the QPs' interior-point
-/// iterations, and its time (JSON `polish`).
+/// The polish's own account: its iterations, the QPs' iterations (the
+/// active-set method's changes of its active set, or the interior point's
+/// iterations where it solved), and its time (JSON `polish`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct PolishReport {
     /// Iterations over every run (the first, and a repair's).

@@ -18,9 +18,12 @@ use crate::problem::dynamics::Model;
 use crate::solution::Solution;
 
 /// Longest segment at the start \[s\]: one cubic of δ (and of a free T) per
-/// segment follows the collocation's controls to ~1e-3 of their range at
-/// this length on the envelope's answers.
-pub const MAX_SEGMENT_S: f64 = 1.5;
+/// segment. It bounds how closely the flown controls can follow the
+/// optimum, not only the collocation's answer: at 1.5 s the polish converged
+/// (its certificate holding) up to 10 kg short of IPOPT's 20 × 8 optimum,
+/// and at 0.75 s the median gap over 42 seeded envelope states fell from
+/// −1.91 to −0.65 kg at 1.3× the time (`bench/accurate.py`, BENCHMARKS.md).
+pub const MAX_SEGMENT_S: f64 = 0.75;
 
 /// Shortest duration a segment may shrink to \[s\] (an arc that the
 /// collocation placed but the optimum does not want nearly vanishes).
