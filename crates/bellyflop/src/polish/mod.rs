@@ -224,7 +224,7 @@ pub fn polish(
     let clock = std::time::Instant::now();
     let model = Model::new(&scenario.vehicle, &scenario.environment);
     let s0 = scenario.initial.state_si();
-    let (layout, p) = start::start(&model, sol);
+    let (layout, p) = start::start(&model, sol, start::MAX_SEGMENT_S);
     let scales = Scales::new(&layout, &model);
     let problem = Problem {
         target: scenario.terminal.state_si(),
@@ -236,8 +236,22 @@ pub fn polish(
         scales,
     };
     let mut report = PolishReport::default();
-    let mut best = run(&problem, &p, &mut report)?;
-    let mut kept = 0;
+    let mut best = match run(&problem, &p, &mut report) {
+        Ok(first) => first,
+        // The coarser start ([`start::FALLBACK_SEGMENT_S`]).
+        Err(_) => {
+            let (layout, p) = start::start(&problem.model, sol, start::FALLBACK_SEGMENT_S);
+            let scales = Scales::new(&layout, &problem.model);
+            let coarse = Problem {
+                layout,
+                scales,
+                ..problem.clone()
+            };
+            run(&coarse, &p, &mut report)?
+        }
+    };
+    // Index of the published structure in the report.
+    let mut kept = report.structures.len() - 1;
     while best.optimality.contradicted_arcs > 0 && report.repairs < max_repairs {
         let Some(other) = repaired(&problem, &best, &mut report) else {
             break;
@@ -246,7 +260,7 @@ pub fn polish(
         match other {
             Some(other) if other.shot.y[6] > best.shot.y[6] => {
                 best = other;
-                kept = report.repairs;
+                kept = report.structures.len() - 1;
             }
             _ => break,
         }
@@ -336,7 +350,13 @@ fn repaired(problem: &Problem, first: &Run, report: &mut PolishReport) -> Option
     let controls = flown(&first.problem.layout, &first.p);
     let at = |t: f64| controls.at(t).unwrap_or((f64::NAN, f64::NAN, f64::NAN));
     // Room for a seed to grow into an arc.
-    let (layout, p) = start::from_arcs(&arcs, |t| at(t).1, |t| at(t).0, start::MAX_SEGMENT_S);
+    let (layout, p) = start::from_arcs(
+        &arcs,
+        |t| at(t).1,
+        |t| at(t).0,
+        start::MAX_SEGMENT_S,
+        start::MAX_SEGMENT_S,
+    );
     let scales = Scales::new(&layout, model);
     let next = Problem {
         layout,

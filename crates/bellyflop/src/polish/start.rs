@@ -25,6 +25,12 @@ use crate::solution::Solution;
 /// −1.91 to −0.65 kg at 1.3× the time (`bench/accurate.py`, BENCHMARKS.md).
 pub const MAX_SEGMENT_S: f64 = 0.75;
 
+/// The longest segment of the polish's second try, where the first (at
+/// [`MAX_SEGMENT_S`]) fails: on 3 of 300 seeded states (`bench/safety.py`)
+/// the finer start, 50–120 m off the pad, did not land within the
+/// iteration cap, and this one did.
+pub const FALLBACK_SEGMENT_S: f64 = 1.5;
+
 /// Shortest duration a segment may shrink to \[s\] (an arc that the
 /// collocation placed but the optimum does not want nearly vanishes).
 pub const MIN_DURATION_S: f64 = 1e-3;
@@ -42,8 +48,9 @@ pub fn longest(d: f64) -> f64 {
     (1.6 * d).max(d + 0.3)
 }
 
-/// Segments and initial parameters from a solved collocation answer.
-pub fn start(model: &Model, sol: &Solution) -> (Layout, Vec<f64>) {
+/// Segments of at most `max_segment_s` and initial parameters from a
+/// solved collocation answer.
+pub fn start(model: &Model, sol: &Solution, max_segment_s: f64) -> (Layout, Vec<f64>) {
     let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
     let chi = model.max_gimbal_rate_radps;
     let thrust = arcs(&sol.t_s, &sol.mesh.points, &sol.thrust_n, lo, hi);
@@ -61,11 +68,12 @@ pub fn start(model: &Model, sol: &Solution) -> (Layout, Vec<f64>) {
         |t| delta.eval(t),
         |t| profile.at(t),
         0.0,
+        max_segment_s,
     )
 }
 
 /// Segments and initial parameters for the thrust arcs `arcs` (each cut
-/// into segments of at most [`MAX_SEGMENT_S`]), with δ(t) and a free
+/// into segments of at most `max_segment_s`), with δ(t) and a free
 /// T(t) projected onto each segment's cubics. Each duration may grow to
 /// [`longest`] of its start, and at least to `room_s`.
 pub fn from_arcs(
@@ -73,8 +81,9 @@ pub fn from_arcs(
     delta: impl Fn(f64) -> f64,
     thrust: impl Fn(f64) -> f64,
     room_s: f64,
+    max_segment_s: f64,
 ) -> (Layout, Vec<f64>) {
-    let spans = cut(arcs);
+    let spans = cut(arcs, max_segment_s);
     let segments: Vec<Segment> = spans
         .iter()
         .map(|&(t0, t1, thrust)| {
@@ -128,13 +137,13 @@ pub fn merge(thrust: &[Arc], rate: &[Arc]) -> Vec<Arc> {
         .collect()
 }
 
-/// The arcs cut into segments of at most [`MAX_SEGMENT_S`], equal within an
+/// The arcs cut into segments of at most `max_segment_s`, equal within an
 /// arc: (t_start, t_end, kind).
-fn cut(arcs: &[Arc]) -> Vec<(f64, f64, ArcKind)> {
+fn cut(arcs: &[Arc], max_segment_s: f64) -> Vec<(f64, f64, ArcKind)> {
     let mut out = Vec::new();
     for a in arcs {
         let len = a.t_end_s - a.t_start_s;
-        let k = (len / MAX_SEGMENT_S).ceil().max(1.0) as usize;
+        let k = (len / max_segment_s).ceil().max(1.0) as usize;
         for i in 0..k {
             let t0 = a.t_start_s + len * i as f64 / k as f64;
             let t1 = a.t_start_s + len * (i + 1) as f64 / k as f64;
@@ -185,7 +194,7 @@ mod tests {
                 kind: ArcKind::Free,
             },
         ];
-        let s = cut(&arcs[..]);
+        let s = cut(&arcs[..], 1.5);
         assert_eq!(s.len(), 4);
         assert!((s[2].1 - 4.0).abs() < 1e-15 && s[3] == (4.0, 4.5, ArcKind::Free));
     }
