@@ -206,3 +206,32 @@ fn a_contradicted_structure_is_repaired_and_gains_mass() {
         first.final_mass_kg
     );
 }
+
+/// A wide-box state (seed 35 of `bench/safety.py`, "wide5") whose polish
+/// from 0.75 s segments stops at its iteration cap before landing: the
+/// polish tries again from 1.5 s segments, and the answer is solved,
+/// safe, and reports the failed structure first.
+#[test]
+fn a_polish_that_fails_from_fine_segments_tries_coarser_ones() {
+    let mut scenario = Scenario::paper();
+    scenario.initial.x_m = -233.992;
+    scenario.initial.z_m = 454.346;
+    scenario.initial.vx_mps = -19.870;
+    scenario.initial.vz_mps = -75.502;
+    scenario.initial.theta_deg = 90.384;
+    scenario.initial.mass_kg = 111_715.686;
+    scenario.discretization.final_mass_guess_kg = 106_715.7;
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    assert_eq!(sol.status, Status::Solved, "{}", sol.message);
+    let report = sol.polish.as_ref().expect("a polished answer");
+    let first = &report.structures[0];
+    assert!(first.final_mass_kg.is_none(), "{report:?}");
+    let second = &report.structures[1];
+    assert!(second.final_mass_kg.is_some(), "{report:?}");
+    assert!(
+        second.segments < first.segments,
+        "the second try has the coarser segments: {report:?}"
+    );
+    let path = sol.path.as_ref().expect("a solved answer's path report");
+    assert!(path.ground_contact_t_s.is_none(), "{path:?}");
+}
