@@ -47,6 +47,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from envelope import BIN, PY, REF, ROOT, scenario_text, states  # noqa: E402
 
 
+def verdict(o):
+    """The certificate's verdict, in words (None: no certificate)."""
+    if not o:
+        return None
+    if o["holds"]:
+        return "holds"
+    if not o["evaluated"]:
+        return "not evaluated"
+    return "contradicted" if o["contradicted_arcs"] > 0 else "not converged"
+
+
 def run_ours(path, repeat, fast=False, binary=BIN):
     cmd = [str(binary), "solve", "--scenario", str(path), "--json", "--quiet", "--repeat", str(repeat)]
     if fast:
@@ -183,9 +194,7 @@ def main():
                        fine_ok=fine["success"], fine_mf=fine["final_mass_kg"],
                        polish_iterations=(ours.get("polish") or {}).get("iterations"),
                        repairs=(ours.get("polish") or {}).get("repairs"),
-                       certificate=(None if not ours.get("optimality") else
-                                    ("holds" if ours["optimality"]["holds"] else
-                                     "contradicted" if ours["optimality"]["evaluated"] else "not evaluated")))
+                       certificate=verdict(ours.get("optimality")))
             rows.append(row)
             if args.table:
                 print(f"{name:7s} {row['status']:12s} {row['ms']:6.1f} ms (raw {row['fast_ms']:5.1f}, IPOPT "
@@ -224,7 +233,7 @@ def summarize(rows):
                   f"{sum(1 for g in gaps if abs(g) <= 1)}/{len(gaps)}, more than 1 kg above on "
                   f"{sum(1 for g in gaps if g > 1)}; raw N = 20 - fine: median {statistics.median(raw):+.2f} kg, "
                   f"min {min(raw):+.2f}, max {max(raw):+.2f}")
-            for verdict in ("holds", "contradicted", "not evaluated"):
+            for verdict in ("holds", "contradicted", "not converged", "not evaluated"):
                 g = [r["mf"] - r["fine_mf"] for r in both if r.get("certificate") == verdict and r["mf"] - r["fine_mf"] < 1]
                 if g:
                     print(f"    certificate {verdict}: {len(g)} states (sound reference), ours - fine median "

@@ -201,8 +201,14 @@ pub struct Optimality {
     /// False where the ground or the dry mass is active (the costates
     /// leave their multipliers out).
     pub evaluated: bool,
-    /// Evaluated, and no bound arc's S_T has the wrong sign.
+    /// Evaluated, converged, and no bound arc's S_T has the wrong sign.
     pub holds: bool,
+    /// The polish stopped on its tolerances (the terminal residual, the
+    /// path and the QP's predicted gain of mass below theirs), not at its
+    /// iteration cap: a first-order loop that creeps to its cap with the
+    /// right signs can still be kilograms short (measured on the seeded
+    /// envelope, BENCHMARKS.md), so the certificate does not hold there.
+    pub converged: bool,
     /// Bound arcs whose S_T has the wrong sign.
     pub contradicted_arcs: usize,
     /// The flight's largest |S_T| (per newton, scaled by the mass scale).

@@ -235,3 +235,37 @@ fn a_polish_that_fails_from_fine_segments_tries_coarser_ones() {
     let path = sol.path.as_ref().expect("a solved answer's path report");
     assert!(path.ground_contact_t_s.is_none(), "{path:?}");
 }
+
+/// A wide-box state (seed 35 of `bench/safety.py`, "wide143") on which the
+/// polish creeps to its iteration cap with every thrust arc's switching
+/// function of the right sign: the certificate is evaluated, but it does
+/// not hold, since the loop did not converge; the paper's case, which
+/// converges, holds.
+#[test]
+fn the_certificate_does_not_hold_where_the_polish_did_not_converge() {
+    let mut scenario = Scenario::paper();
+    scenario.initial.x_m = 91.587;
+    scenario.initial.z_m = 725.273;
+    scenario.initial.vx_mps = -18.735;
+    scenario.initial.vz_mps = -71.615;
+    scenario.initial.theta_deg = 95.194;
+    scenario.initial.mass_kg = 116_459.981;
+    scenario.discretization.final_mass_guess_kg = 111_460.0;
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    assert_eq!(sol.status, Status::Solved, "{}", sol.message);
+    let o = sol
+        .optimality
+        .as_ref()
+        .expect("a polished answer's certificate");
+    let report = sol.polish.as_ref().unwrap();
+    assert_eq!(
+        report.iterations,
+        bellyflop::polish::MAX_ITERATIONS,
+        "{report:?}"
+    );
+    assert!(o.evaluated && o.contradicted_arcs == 0, "{o:?}");
+    assert!(!o.converged && !o.holds, "{o:?}");
+    let paper = bellyflop::solve(&Scenario::paper(), &SolverSettings::default(), &mut Silent);
+    let o = paper.optimality.as_ref().unwrap();
+    assert!(o.converged && o.holds, "{o:?}");
+}

@@ -75,6 +75,8 @@ pub fn certify(
     Optimality {
         evaluated: !path_active,
         holds: !path_active && contradicted == 0,
+        // The polish's to say ([`crate::polish`]).
+        converged: true,
         contradicted_arcs: contradicted,
         switching_scale: scale,
         thrust_arcs: arcs,

@@ -309,7 +309,7 @@ fn run(problem: &Problem, p: &[f64], report: &mut PolishReport) -> Result<Run, P
 /// [`run`]'s work.
 fn run_on(problem: &Problem, p: &[f64], report: &mut PolishReport) -> Result<Run, PolishError> {
     let mut p = project(problem, p, &mut report.qp_iterations)?;
-    let (iterations, shot, last) = iterate(problem, &mut p, report)?;
+    let (iterations, shot, last, converged) = iterate(problem, &mut p, report)?;
     let (y, t) = (&shot.y, &problem.target);
     if problem.residual(y).iter().map(|r| r.abs()).sum::<f64>() > 10.0 * RESIDUAL_TOLERANCE {
         return Err(PolishError::NotLanded {
@@ -325,7 +325,7 @@ fn run_on(problem: &Problem, p: &[f64], report: &mut PolishReport) -> Result<Run
         });
     }
     let switching = switching(problem, &p, &last);
-    let optimality = certify(problem, &switching, &last);
+    let optimality = certify(problem, &switching, &last, converged);
     Ok(Run {
         problem: problem.clone(),
         p,
@@ -396,12 +396,14 @@ fn project(problem: &Problem, p: &[f64], qp_iterations: &mut u32) -> Result<Vec<
 /// The SCvx iteration: linearize the shot at p, solve the QP with the
 /// proximal weight, accept or reject by the merit's actual against
 /// predicted decrease; then the landing corrections ([`correct`]).
-/// Returns the iterations and the shot at the last p.
+/// Returns the iterations, the shot at the last p, the last QP's
+/// multipliers, and whether the loop stopped on its tolerances (not at its
+/// cap or its weight's limit).
 fn iterate(
     problem: &Problem,
     p: &mut Vec<f64>,
     report: &mut PolishReport,
-) -> Result<(usize, Shot, Multipliers), PolishError> {
+) -> Result<(usize, Shot, Multipliers, bool), PolishError> {
     let PolishReport {
         qp_iterations,
         history,
@@ -415,6 +417,7 @@ fn iterate(
     let mut watch: Vec<usize> = Vec::new();
     let mut iteration = 0;
     let mut last = Multipliers::default();
+    let mut converged = false;
     while iteration < MAX_ITERATIONS {
         iteration += 1;
         let shot = problem.shot_of(&sens);
@@ -468,6 +471,7 @@ fn iterate(
             // predicted decrease went to zero (measured on the envelope).
             && (within_bounds(problem, p) || predicted <= 0.0)
         {
+            converged = true;
             break;
         }
         let candidate = problem.moved(p, &step.dp);
@@ -510,7 +514,7 @@ fn iterate(
         qp_iterations,
     );
     *total += iteration;
-    Ok((iteration, shot, last))
+    Ok((iteration, shot, last, converged))
 }
 
 /// The multipliers of the last QP of the iteration: its terminal rows',
@@ -538,8 +542,14 @@ fn switching(problem: &Problem, p: &[f64], last: &Multipliers) -> adjoint::Switc
 }
 
 /// The certificate ([`certificate`]) of the switching functions `sw`,
-/// made with the last QP's multipliers.
-fn certify(problem: &Problem, sw: &adjoint::Switching, last: &Multipliers) -> Optimality {
+/// made with the last QP's multipliers; it does not hold where the loop
+/// did not converge (`converged`), whatever the signs say.
+fn certify(
+    problem: &Problem,
+    sw: &adjoint::Switching,
+    last: &Multipliers,
+    converged: bool,
+) -> Optimality {
     let mut o = certificate::certify(
         &problem.layout,
         sw,
@@ -548,6 +558,8 @@ fn certify(problem: &Problem, sw: &adjoint::Switching, last: &Multipliers) -> Op
     );
     o.multipliers = last.terminal;
     o.path_multiplier = last.path;
+    o.converged = converged;
+    o.holds &= converged;
     o
 }
 
