@@ -103,9 +103,13 @@ def test_a_differing_duplicate_is_an_error():
 
 SIGINT_CHILD = textwrap.dedent(
     """
-    import sys, time
+    import signal, sys, time
     from concurrent.futures import ProcessPoolExecutor
     import bellyflop
+    # A test suite started in the background by a non-interactive shell
+    # inherits SIGINT ignored, and Python then keeps it ignored: the
+    # child would never see the Ctrl-C this test sends.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     mode = sys.argv[1]
     print("ready", flush=True)
     def campaign(**kw):
