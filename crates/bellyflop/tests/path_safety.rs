@@ -207,20 +207,26 @@ fn a_contradicted_structure_is_repaired_and_gains_mass() {
     );
 }
 
+/// A state of `bench/safety.py` as its scenario file has it: the paper's
+/// vehicle from (x, z, Vx, Vz, θ°, m), with the final-mass guess 5 t below
+/// the initial mass (`bench/envelope.py`).
+fn safety_state(state: [f64; 6]) -> Scenario {
+    let mut s = Scenario::paper();
+    let [x, z, vx, vz, theta, m] = state;
+    (s.initial.x_m, s.initial.z_m) = (x, z);
+    (s.initial.vx_mps, s.initial.vz_mps) = (vx, vz);
+    (s.initial.theta_deg, s.initial.mass_kg) = (theta, m);
+    s.discretization.final_mass_guess_kg = m - 5000.0;
+    s
+}
+
 /// A wide-box state (seed 35 of `bench/safety.py`, "wide5") whose polish
 /// from 0.75 s segments stops at its iteration cap before landing: the
 /// polish tries again from 1.5 s segments, and the answer is solved,
 /// safe, and reports the failed structure first.
 #[test]
 fn a_polish_that_fails_from_fine_segments_tries_coarser_ones() {
-    let mut scenario = Scenario::paper();
-    scenario.initial.x_m = -233.992;
-    scenario.initial.z_m = 454.346;
-    scenario.initial.vx_mps = -19.870;
-    scenario.initial.vz_mps = -75.502;
-    scenario.initial.theta_deg = 90.384;
-    scenario.initial.mass_kg = 111_715.686;
-    scenario.discretization.final_mass_guess_kg = 106_715.7;
+    let scenario = safety_state([-233.992, 454.346, -19.870, -75.502, 90.384, 111_715.686]);
     let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
     let report = sol.polish.as_ref().expect("a polished answer");
@@ -243,14 +249,7 @@ fn a_polish_that_fails_from_fine_segments_tries_coarser_ones() {
 /// converges, holds.
 #[test]
 fn the_certificate_does_not_hold_where_the_polish_did_not_converge() {
-    let mut scenario = Scenario::paper();
-    scenario.initial.x_m = 91.587;
-    scenario.initial.z_m = 725.273;
-    scenario.initial.vx_mps = -18.735;
-    scenario.initial.vz_mps = -71.615;
-    scenario.initial.theta_deg = 95.194;
-    scenario.initial.mass_kg = 116_459.981;
-    scenario.discretization.final_mass_guess_kg = 111_460.0;
+    let scenario = safety_state([91.587, 725.273, -18.735, -71.615, 95.194, 116_459.981]);
     let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
     let o = sol

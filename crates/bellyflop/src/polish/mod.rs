@@ -429,17 +429,14 @@ fn iterate(
         let path = problem.path_rows(&sens, &watch);
         let before_qp = *qp_iterations;
         let residual: f64 = problem.residual(&y).iter().map(|r| r.abs()).sum();
-        let step = bounded_step(
-            problem,
-            p,
-            &terminal,
-            &gradient,
+        let ask = Linearized {
+            terminal: &terminal,
+            gradient: &gradient,
             weight,
-            &path,
-            residual < NEAR_RESIDUAL,
-            qp_iterations,
-        )
-        .map_err(|reason| PolishError::Subproblem { iteration, reason })?;
+            path: &path,
+        };
+        let step = bounded_step(problem, p, &ask, residual < NEAR_RESIDUAL, qp_iterations)
+            .map_err(|reason| PolishError::Subproblem { iteration, reason })?;
         last = Multipliers {
             terminal: step.multipliers,
             path: step.path_multiplier,
@@ -627,16 +624,22 @@ fn linear_path(current: f64, rows: &[(Vec<(usize, f64)>, f64)], dp: &[f64]) -> f
     }
 }
 
-/// One QP of the iteration at p with the proximal weight ε (with the
-/// bounds also at the extrema of `also`, [`subproblem::bound_rows`]).
-#[allow(clippy::too_many_arguments)]
+/// What a QP of the polish asks at p besides its linear rows: the
+/// linearized terminal rows, the mass gradient (zero for a correction),
+/// the proximal weight ε and the path rows.
+struct Linearized<'a> {
+    terminal: &'a Terminal,
+    gradient: &'a [f64],
+    weight: f64,
+    path: &'a [(Vec<(usize, f64)>, f64)],
+}
+
+/// One QP at p (with the bounds also at the extrema of `also`,
+/// [`subproblem::bound_rows`]).
 fn qp(
     problem: &Problem,
     p: &[f64],
-    terminal: &Terminal,
-    gradient: &[f64],
-    weight: f64,
-    path: &[(Vec<(usize, f64)>, f64)],
+    ask: &Linearized,
     also: Option<&[f64]>,
     qp_iterations: &mut u32,
 ) -> Result<subproblem::Step, String> {
@@ -652,11 +655,11 @@ fn qp(
     let step = subproblem::solve(
         &Qp {
             rows: &rows,
-            terminal: Some(terminal),
-            mass_gradient: gradient,
+            terminal: Some(ask.terminal),
+            mass_gradient: ask.gradient,
             trust_radius: BOX,
-            proximal_weight: weight,
-            path,
+            proximal_weight: ask.weight,
+            path: ask.path,
         },
         p.len(),
     )?;
@@ -700,42 +703,20 @@ const NEAR_RESIDUAL: f64 = 1e-2;
 /// twice. The active-set method puts an active row exactly on its bound,
 /// so a step that ends on a bound at a grid point bulges past it between
 /// the points unless the new extrema carry rows.
-#[allow(clippy::too_many_arguments)]
 fn bounded_step(
     problem: &Problem,
     p: &[f64],
-    terminal: &Terminal,
-    gradient: &[f64],
-    weight: f64,
-    path: &[(Vec<(usize, f64)>, f64)],
+    ask: &Linearized,
     near: bool,
     qp_iterations: &mut u32,
 ) -> Result<subproblem::Step, String> {
-    let mut step = qp(
-        problem,
-        p,
-        terminal,
-        gradient,
-        weight,
-        path,
-        None,
-        qp_iterations,
-    )?;
+    let mut step = qp(problem, p, ask, None, qp_iterations)?;
     for _ in 0..2 * usize::from(near) {
         let candidate = problem.moved(p, &step.dp);
         if within_bounds(problem, &candidate) {
             break;
         }
-        step = qp(
-            problem,
-            p,
-            terminal,
-            gradient,
-            weight,
-            path,
-            Some(&candidate),
-            qp_iterations,
-        )?;
+        step = qp(problem, p, ask, Some(&candidate), qp_iterations)?;
     }
     Ok(step)
 }
@@ -769,16 +750,13 @@ fn correct(
             jacobian: terminal.jacobian.clone(),
             residual: problem.residual(&shot.y),
         };
-        let Ok(step) = qp(
-            problem,
-            p,
-            &chord,
-            &zeros,
-            CORRECTION_WEIGHT,
+        let ask = Linearized {
+            terminal: &chord,
+            gradient: &zeros,
+            weight: CORRECTION_WEIGHT,
             path,
-            outside.as_deref(),
-            qp_iterations,
-        ) else {
+        };
+        let Ok(step) = qp(problem, p, &ask, outside.as_deref(), qp_iterations) else {
             break;
         };
         let candidate = problem.moved(p, &step.dp);
@@ -845,16 +823,13 @@ fn judge(
         jacobian: terminal.jacobian.clone(),
         residual: problem.residual(&shot.y),
     };
-    let Ok(step) = qp(
-        problem,
-        &candidate,
-        &correction,
-        &zeros,
-        CORRECTION_WEIGHT,
-        &[],
-        None,
-        qp_iterations,
-    ) else {
+    let ask = Linearized {
+        terminal: &correction,
+        gradient: &zeros,
+        weight: CORRECTION_WEIGHT,
+        path: &[],
+    };
+    let Ok(step) = qp(problem, &candidate, &ask, None, qp_iterations) else {
         return (candidate, actual, Some(shot));
     };
     let corrected = problem.moved(&candidate, &step.dp);
