@@ -46,9 +46,10 @@ struct Normal {
 }
 
 /// The method's state: the iterate, the factors and the active set.
-struct State<'a> {
+struct State {
     n: usize,
-    rows: Vec<&'a Row>,
+    /// The equalities then the inequalities, scaled.
+    rows: Vec<Row>,
     equalities: usize,
     x: Vec<f64>,
     /// J (n × n, column-major).
@@ -67,22 +68,23 @@ struct State<'a> {
     step: Vec<f64>,
 }
 
-impl<'a> State<'a> {
-    fn new(p: &[f64], q: &[f64], eq: &'a [Row], le: &'a [Row]) -> Self {
+impl State {
+    fn new(p: &[f64], q: &[f64], eq: Vec<Row>, le: Vec<Row>) -> Self {
         let n = p.len();
         let mut j = vec![0.0; n * n];
         for i in 0..n {
             j[i + i * n] = 1.0 / p[i].sqrt();
         }
+        let (equalities, total) = (eq.len(), eq.len() + le.len());
         State {
             n,
-            rows: eq.iter().chain(le).collect(),
-            equalities: eq.len(),
+            rows: eq.into_iter().chain(le).collect(),
+            equalities,
             x: q.iter().zip(p).map(|(q, p)| -q / p).collect(),
             j,
             r: vec![0.0; n * n],
             active: Vec::with_capacity(n),
-            is_active: vec![false; eq.len() + le.len()],
+            is_active: vec![false; total],
             u: Vec::with_capacity(n + 1),
             changes: 0,
             d: vec![0.0; n],
@@ -93,7 +95,7 @@ impl<'a> State<'a> {
 
     /// c·x − β of a normal at x.
     fn slack(&self, c: Normal) -> f64 {
-        let (terms, rhs) = self.rows[c.row];
+        let (terms, rhs) = &self.rows[c.row];
         c.sign * (terms.iter().map(|&(k, v)| v * self.x[k]).sum::<f64>() - rhs)
     }
 
@@ -271,53 +273,113 @@ impl<'a> State<'a> {
 /// Solve one QP (module docs). Rows are scaled to a unit ∞-norm first;
 /// the multipliers come back for the rows as given.
 pub fn solve(problem: &Problem) -> Result<Answer, QpError> {
-    validate(problem)?;
-    if problem.p.iter().any(|&p| p <= 0.0) {
-        return Err(QpError::NotStrictlyConvex);
-    }
-    let (eq, eq_scale) = scaled(problem.eq);
-    let (le, le_scale) = scaled(problem.le);
-    let n = problem.p.len();
-    let limit = CHANGES_PER_ROW * (n + eq.len() + le.len()) + 100;
-    let mut state = State::new(problem.p, problem.q, &eq, &le);
-    for (row, (_, rhs)) in eq.iter().enumerate() {
-        let plain = Normal { row, sign: 1.0 };
-        let s = state.slack(plain);
-        let c = Normal {
-            row,
-            sign: if s > 0.0 { -1.0 } else { 1.0 },
-        };
-        let (outside, all) = state.directions(c);
-        if outside <= DEPENDENT * all {
-            // Dependent on the equalities before it: met, or inconsistent.
-            if s.abs() > VIOLATION * (1.0 + rhs.abs()) * 1e3 {
-                return Err(QpError::Infeasible { row, residual: s });
+    Solver::new(problem).map(|s| s.answer())
+}
+
+/// A solved QP that takes more inequality rows. The method keeps its
+/// iterate dual feasible, so a solved state stays so when rows are added:
+/// continuing from it costs only the changes the new rows bring, where
+/// solving the grown QP anew repeats every change (the polish asks for the
+/// same QP again with rows at a step's moved extrema).
+pub struct Solver {
+    state: State,
+    eq_scale: Vec<f64>,
+    le_scale: Vec<f64>,
+    /// The cap on the active set's changes.
+    limit: usize,
+}
+
+impl Solver {
+    /// Solve `problem` (module docs).
+    pub fn new(problem: &Problem) -> Result<Self, QpError> {
+        validate(problem)?;
+        if problem.p.iter().any(|&p| p <= 0.0) {
+            return Err(QpError::NotStrictlyConvex);
+        }
+        let (eq, eq_scale) = scaled(problem.eq);
+        let (le, le_scale) = scaled(problem.le);
+        let n = problem.p.len();
+        let limit = CHANGES_PER_ROW * (n + eq.len() + le.len()) + 100;
+        let equalities = eq.len();
+        let mut state = State::new(problem.p, problem.q, eq, le);
+        for row in 0..equalities {
+            let rhs = state.rows[row].1;
+            let plain = Normal { row, sign: 1.0 };
+            let s = state.slack(plain);
+            let c = Normal {
+                row,
+                sign: if s > 0.0 { -1.0 } else { 1.0 },
+            };
+            let (outside, all) = state.directions(c);
+            if outside <= DEPENDENT * all {
+                // Dependent on the equalities before it: met, or inconsistent.
+                if s.abs() > VIOLATION * (1.0 + rhs.abs()) * 1e3 {
+                    return Err(QpError::Infeasible { row, residual: s });
+                }
+                continue;
             }
-            continue;
+            state.enforce(c, -s.abs(), limit)?;
         }
-        state.enforce(c, -s.abs(), limit)?;
+        let mut solver = Solver {
+            state,
+            eq_scale,
+            le_scale,
+            limit,
+        };
+        solver.finish()?;
+        Ok(solver)
     }
-    while let Some((c, s)) = state.most_violated() {
-        state.enforce(c, s, limit)?;
+
+    /// Add inequality rows G·x ≤ h (after the problem's own, in the
+    /// answer's `z`) and solve again from the last answer.
+    pub fn add(&mut self, le: &[Row]) -> Result<(), QpError> {
+        let n = self.state.n;
+        validate(&Problem {
+            p: &vec![1.0; n],
+            q: &vec![0.0; n],
+            eq: &[],
+            le,
+        })?;
+        let (le, scale) = scaled(le);
+        self.limit += CHANGES_PER_ROW * le.len();
+        self.state
+            .is_active
+            .extend(std::iter::repeat_n(false, le.len()));
+        self.state.rows.extend(le);
+        self.le_scale.extend(scale);
+        self.finish()
     }
-    let mut y = vec![0.0; eq.len()];
-    let mut z = vec![0.0; le.len()];
-    for (c, u) in state.active.iter().zip(&state.u) {
-        if c.row < eq.len() {
-            // Lagrangian −u·σ·(a·x − b) here, +y·(a·x − b) in Answer's.
-            y[c.row] = -c.sign * u / eq_scale[c.row];
-        } else {
-            let k = c.row - eq.len();
-            z[k] = u / le_scale[k];
+
+    /// Add the most violated inequality until none is.
+    fn finish(&mut self) -> Result<(), QpError> {
+        while let Some((c, s)) = self.state.most_violated() {
+            self.state.enforce(c, s, self.limit)?;
+        }
+        Ok(())
+    }
+
+    /// The answer: x, the multipliers, and the active set's changes so far.
+    pub fn answer(&self) -> Answer {
+        let equalities = self.state.equalities;
+        let mut y = vec![0.0; equalities];
+        let mut z = vec![0.0; self.le_scale.len()];
+        for (c, u) in self.state.active.iter().zip(&self.state.u) {
+            if c.row < equalities {
+                // Lagrangian −u·σ·(a·x − b) here, +y·(a·x − b) in Answer's.
+                y[c.row] = -c.sign * u / self.eq_scale[c.row];
+            } else {
+                let k = c.row - equalities;
+                z[k] = u / self.le_scale[k];
+            }
+        }
+        Answer {
+            x: self.state.x.clone(),
+            y,
+            z,
+            iterations: self.state.changes as u32,
+            status: Status::Solved,
         }
     }
-    Ok(Answer {
-        x: state.x,
-        y,
-        z,
-        iterations: state.changes as u32,
-        status: Status::Solved,
-    })
 }
 
 #[cfg(test)]
@@ -459,6 +521,70 @@ mod tests {
             }
         }
         assert!(compared > 150, "{compared}");
+    }
+
+    /// A QP solved on part of its inequalities and then given the rest
+    /// ([`Solver::add`]) ends at the answer of the whole QP solved anew:
+    /// the same x and multipliers (the answer is unique), in fewer changes
+    /// than the new solve's.
+    #[test]
+    fn adding_rows_continues_to_the_grown_qps_answer() {
+        let mut rng = ChaCha8Rng::seed_from_u64(37);
+        let (mut fewer, mut cases) = (0, 0);
+        for case in 0..100 {
+            let n = rng.gen_range(3..30);
+            let p: Vec<f64> = (0..n)
+                .map(|_| 10f64.powf(rng.gen_range(-3.0..1.0f64)))
+                .collect();
+            let q: Vec<f64> = (0..n).map(|_| rng.gen_range(-10.0..10.0)).collect();
+            let x0: Vec<f64> = (0..n).map(|_| rng.gen_range(-0.5..0.5)).collect();
+            let mut row = |slack: f64| -> Row {
+                let terms: Vec<(usize, f64)> = (0..n)
+                    .filter(|_| rng.gen_bool(0.3))
+                    .collect::<Vec<_>>()
+                    .into_iter()
+                    .map(|c| (c, rng.gen_range(-1.0..1.0)))
+                    .collect();
+                let b = terms.iter().map(|&(c, v)| v * x0[c]).sum::<f64>() + slack;
+                (terms, b)
+            };
+            let eq: Vec<Row> = (0..n / 4).map(|_| row(0.0)).collect();
+            let le: Vec<Row> = (0..3 * n).map(|k| row(0.01 * k as f64)).collect();
+            let split = le.len() / 2;
+            let whole = Problem {
+                p: &p,
+                q: &q,
+                eq: &eq,
+                le: &le,
+            };
+            let anew = solve(&whole).unwrap_or_else(|e| panic!("case {case}: {e}"));
+            let mut solver = Solver::new(&Problem {
+                le: &le[..split],
+                ..whole
+            })
+            .unwrap();
+            let before = solver.answer().iterations;
+            solver.add(&le[split..]).unwrap();
+            let grown = solver.answer();
+            for (a, b) in grown.x.iter().zip(&anew.x) {
+                assert!((a - b).abs() < 1e-9 * (1.0 + b.abs()), "case {case}");
+            }
+            for (a, b) in grown
+                .y
+                .iter()
+                .zip(&anew.y)
+                .chain(grown.z.iter().zip(&anew.z))
+            {
+                assert!(
+                    (a - b).abs() < 1e-7 * (1.0 + b.abs()),
+                    "case {case}: {a} {b}"
+                );
+            }
+            assert_eq!(grown.z.len(), le.len());
+            cases += 1;
+            fewer += usize::from(grown.iterations - before < anew.iterations);
+        }
+        assert!(fewer > cases / 2, "{fewer} of {cases}");
     }
 
     #[test]

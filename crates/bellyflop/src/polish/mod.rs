@@ -385,10 +385,12 @@ fn project(problem: &Problem, p: &[f64], qp_iterations: &mut u32) -> Result<Vec<
         proximal_weight: 1.0,
         path: &[],
     };
-    let step = subproblem::solve(&qp, p.len()).map_err(|reason| PolishError::Subproblem {
-        iteration: 0,
-        reason,
-    })?;
+    let step = subproblem::solve(&qp, p.len())
+        .map_err(|reason| PolishError::Subproblem {
+            iteration: 0,
+            reason,
+        })?
+        .step;
     *qp_iterations += step.iterations;
     Ok(problem.moved(p, &step.dp))
 }
@@ -435,7 +437,8 @@ fn iterate(
             weight,
             path: &path,
         };
-        let step = bounded_step(problem, p, &ask, residual < NEAR_RESIDUAL, qp_iterations)
+        let tries = 2 * usize::from(residual < NEAR_RESIDUAL);
+        let step = bounded_step(problem, p, &ask, tries, qp_iterations)
             .map_err(|reason| PolishError::Subproblem { iteration, reason })?;
         last = Multipliers {
             terminal: step.multipliers,
@@ -634,27 +637,16 @@ struct Linearized<'a> {
     path: &'a [(Vec<(usize, f64)>, f64)],
 }
 
-/// One QP at p (with the bounds also at the extrema of `also`,
-/// [`subproblem::bound_rows`]).
+/// One QP at p on the bound rows `rows`.
 fn qp(
-    problem: &Problem,
     p: &[f64],
+    rows: &subproblem::Rows,
     ask: &Linearized,
-    also: Option<&[f64]>,
     qp_iterations: &mut u32,
-) -> Result<subproblem::Step, String> {
-    let rows = subproblem::bound_rows(
-        &problem.layout,
-        &problem.model,
-        &problem.scales,
-        p,
-        problem.delta0,
-        subproblem::BOUND_MARGIN,
-        also,
-    );
-    let step = subproblem::solve(
+) -> Result<subproblem::Solved, String> {
+    let solved = subproblem::solve(
         &Qp {
-            rows: &rows,
+            rows,
             terminal: Some(ask.terminal),
             mass_gradient: ask.gradient,
             trust_radius: BOX,
@@ -663,8 +655,8 @@ fn qp(
         },
         p.len(),
     )?;
-    *qp_iterations += step.iterations;
-    Ok(step)
+    *qp_iterations += solved.step.iterations;
+    Ok(solved)
 }
 
 /// The proximal weight after a step judged `rho` at `weight`, and the
@@ -697,28 +689,51 @@ const FLOOR_DECAY: f64 = 0.8;
 /// taken back by the next).
 const NEAR_RESIDUAL: f64 = 1e-2;
 
-/// The QP's step at p ([`qp`]); `near` the end, where the step's
-/// polynomials leave their bounds between the rows (their extrema moved
-/// with it), the QP again with rows at the step's extrema too, at most
-/// twice. The active-set method puts an active row exactly on its bound,
-/// so a step that ends on a bound at a grid point bulges past it between
-/// the points unless the new extrema carry rows.
+/// The QP's step at p ([`qp`]); and while the step's polynomials leave
+/// their bounds between the rows (their extrema moved with it), at most
+/// `tries` times, the same QP with rows at the step's extrema too,
+/// continued from its answer ([`subproblem::Solved::add`]). The
+/// active-set method puts an active row exactly on its bound, so a step
+/// that ends on a bound at a grid point bulges past it between the points
+/// unless the new extrema carry rows.
 fn bounded_step(
     problem: &Problem,
     p: &[f64],
     ask: &Linearized,
-    near: bool,
+    tries: usize,
     qp_iterations: &mut u32,
 ) -> Result<subproblem::Step, String> {
-    let mut step = qp(problem, p, ask, None, qp_iterations)?;
-    for _ in 0..2 * usize::from(near) {
-        let candidate = problem.moved(p, &step.dp);
+    let mut rows = subproblem::bound_rows(
+        &problem.layout,
+        &problem.model,
+        &problem.scales,
+        p,
+        problem.delta0,
+        subproblem::BOUND_MARGIN,
+        None,
+    );
+    let mut solved = qp(p, &rows, ask, qp_iterations)?;
+    for _ in 0..tries {
+        let candidate = problem.moved(p, &solved.step.dp);
         if within_bounds(problem, &candidate) {
             break;
         }
-        step = qp(problem, p, ask, Some(&candidate), qp_iterations)?;
+        let extra = subproblem::extrema_rows(
+            &problem.layout,
+            &problem.model,
+            &problem.scales,
+            p,
+            subproblem::BOUND_MARGIN,
+            &candidate,
+        );
+        if solved.add(&extra) {
+            *qp_iterations += solved.step.iterations;
+        } else {
+            rows.le.extend(extra);
+            solved = qp(p, &rows, ask, qp_iterations)?;
+        }
     }
-    Ok(step)
+    Ok(solved.step)
 }
 
 /// The landing corrections: chord steps (the Jacobian at the last
@@ -726,7 +741,8 @@ fn bounded_step(
 /// within the linear constraints and the path rows of the last
 /// linearization, while they shrink the residual without a path
 /// violation, until it is below [`CORRECTED_RESIDUAL`] and p within its
-/// bounds at its own extrema (at most six QPs).
+/// bounds at its own extrema (at most six, each with one retry at the
+/// extrema of its step, [`bounded_step`]).
 /// They cost one shot each, no sensitivity. Returns the shot at the
 /// corrected p.
 fn correct(
@@ -739,9 +755,6 @@ fn correct(
 ) -> Shot {
     let size = |y: &[f64; 7]| problem.residual(y).iter().map(|r| r.abs()).sum::<f64>();
     let zeros = vec![0.0; p.len()];
-    // A candidate out of its bounds: the same correction again with rows at
-    // its extrema too.
-    let mut outside: Option<Vec<f64>> = None;
     for _ in 0..6 {
         if size(&shot.y) < CORRECTED_RESIDUAL && within_bounds(problem, p) {
             break;
@@ -756,15 +769,12 @@ fn correct(
             weight: CORRECTION_WEIGHT,
             path,
         };
-        let Ok(step) = qp(problem, p, &ask, outside.as_deref(), qp_iterations) else {
+        // A candidate out of its bounds: the same correction again with
+        // rows at its extrema too.
+        let Ok(step) = bounded_step(problem, p, &ask, 1, qp_iterations) else {
             break;
         };
         let candidate = problem.moved(p, &step.dp);
-        if !within_bounds(problem, &candidate) && outside.is_none() {
-            outside = Some(candidate);
-            continue;
-        }
-        outside = None;
         // A correction may not take p out of its bounds (its rows are at p,
         // and the extrema move with the step); one that takes it back in
         // may leave a residual up to the iteration's tolerance, which the
@@ -829,7 +839,7 @@ fn judge(
         weight: CORRECTION_WEIGHT,
         path: &[],
     };
-    let Ok(step) = qp(problem, &candidate, &ask, None, qp_iterations) else {
+    let Ok(step) = bounded_step(problem, &candidate, &ask, 0, qp_iterations) else {
         return (candidate, actual, Some(shot));
     };
     let corrected = problem.moved(&candidate, &step.dp);

@@ -108,7 +108,8 @@ pub fn linear_rows(
 
 /// [`linear_rows`] with the bounds `margin` inside (0: the bounds
 /// themselves), and with rows also at the interior extrema of the
-/// polynomials of `also` (a step from p whose extrema moved).
+/// polynomials of `also` (a step from p whose extrema moved:
+/// [`extrema_rows`]).
 pub fn bound_rows(
     layout: &Layout,
     model: &Model,
@@ -118,78 +119,129 @@ pub fn bound_rows(
     margin: f64,
     also: Option<&[f64]>,
 ) -> Rows {
-    let sc = &scales.0;
-    // The interior extrema of the polynomial at `at`, of p and of `also`.
-    let extrema = |at: usize| {
-        let (mut values, mut slopes) = (Vec::new(), Vec::new());
-        for q in std::iter::once(p).chain(also) {
-            let (v, r) = critical_points(&q[at..at + NC]);
-            values.extend(v);
-            slopes.push(r);
-        }
-        (values, slopes)
-    };
+    let bounds = Bounds::new(model, scales, p, margin);
     let mut rows = Rows::default();
-    let poly = |at: usize, basis: &[f64; NC]| -> (Vec<(usize, f64)>, f64) {
-        let terms = (0..NC).map(|k| (at + k, basis[k] * sc[at + k])).collect();
-        let value = (0..NC).map(|k| basis[k] * p[at + k]).sum();
-        (terms, value)
-    };
-    let dmax = model.max_gimbal_rad * (1.0 - margin);
-    let chimax = model.max_gimbal_rate_radps * (1.0 - RATE_MARGIN_FACTOR * margin);
-    let margin_t = margin * (model.max_thrust_n - model.min_thrust_n);
-    let (tlo, thi) = (model.min_thrust_n + margin_t, model.max_thrust_n - margin_t);
     let last = layout.segments.len() - 1;
-    let grid = (0..GRID).map(|g| g as f64 / (GRID - 1) as f64);
+    let grid = || (0..GRID).map(|g| g as f64 / (GRID - 1) as f64);
     for (j, seg) in layout.segments.iter().enumerate() {
         let (dj, aj) = (layout.duration(j), layout.delta(j));
-        let (delta_extrema, rate_extrema) = extrema(aj);
+        let (delta_extrema, rate_extrema) = critical_points(&p[aj..aj + NC]);
         // δ(0) of the first segment is δ_0, fixed by an equality.
         let first = usize::from(j == 0);
-        for s in grid.clone().skip(first).chain(delta_extrema) {
-            if s.is_finite() {
-                let (terms, v) = poly(aj, &legendre(s));
-                rows.le.push((terms.clone(), dmax - v));
-                rows.le.push((negate(&terms), dmax + v));
-            }
-        }
-        for s in grid.clone().chain(rate_extrema) {
-            if !s.is_finite() {
-                continue;
-            }
-            // ±dδ/ds − χ_max·d ≤ 0.
-            let (mut terms, v) = poly(aj, &legendre_slope(s));
-            let d = p[dj];
-            let mut neg = negate(&terms);
-            terms.push((dj, -chimax * sc[dj]));
-            neg.push((dj, -chimax * sc[dj]));
-            rows.le.push((terms, chimax * d - v));
-            rows.le.push((neg, chimax * d + v));
-        }
+        bounds.delta(aj, grid().skip(first).chain(delta_extrema), &mut rows);
+        bounds.rate(aj, dj, grid().chain([rate_extrema]), &mut rows);
         if let Some(at) = layout.thrust(j) {
-            let (thrust_extrema, _) = extrema(at);
-            for s in grid.clone().chain(thrust_extrema) {
-                if s.is_finite() {
-                    let (terms, v) = poly(at, &legendre(s));
-                    rows.le.push((terms.clone(), thi - v));
-                    rows.le.push((negate(&terms), v - tlo));
-                }
-            }
+            let (thrust_extrema, _) = critical_points(&p[at..at + NC]);
+            bounds.thrust(at, grid().chain(thrust_extrema), &mut rows);
         }
-        rows.le.push((vec![(dj, sc[dj])], seg.d_max_s - p[dj]));
-        rows.le.push((vec![(dj, -sc[dj])], p[dj] - seg.d_min_s));
+        rows.le
+            .push((vec![(dj, bounds.sc[dj])], seg.d_max_s - p[dj]));
+        rows.le
+            .push((vec![(dj, -bounds.sc[dj])], p[dj] - seg.d_min_s));
         if j == 0 {
-            let (terms, v) = poly(aj, &legendre(0.0));
+            let (terms, v) = bounds.poly(aj, &legendre(0.0));
             rows.eq.push((terms, delta0 - v));
         }
         if j < last {
-            let (mut terms, v1) = poly(aj, &legendre(1.0));
-            let (next, v0) = poly(layout.delta(j + 1), &legendre(0.0));
+            let (mut terms, v1) = bounds.poly(aj, &legendre(1.0));
+            let (next, v0) = bounds.poly(layout.delta(j + 1), &legendre(0.0));
             terms.extend(negate(&next));
             rows.eq.push((terms, v0 - v1));
         }
     }
+    if let Some(q) = also {
+        rows.le
+            .extend(extrema_rows(layout, model, scales, p, margin, q));
+    }
     rows
+}
+
+/// The bound rows of T, δ and χ linearized at p, at the interior extrema
+/// of the polynomials of q (only there: [`bound_rows`] adds the grid).
+pub fn extrema_rows(
+    layout: &Layout,
+    model: &Model,
+    scales: &Scales,
+    p: &[f64],
+    margin: f64,
+    q: &[f64],
+) -> Vec<(Vec<(usize, f64)>, f64)> {
+    let bounds = Bounds::new(model, scales, p, margin);
+    let mut rows = Rows::default();
+    for j in 0..layout.segments.len() {
+        let (dj, aj) = (layout.duration(j), layout.delta(j));
+        let (delta_extrema, rate_extrema) = critical_points(&q[aj..aj + NC]);
+        bounds.delta(aj, delta_extrema.into_iter(), &mut rows);
+        bounds.rate(aj, dj, std::iter::once(rate_extrema), &mut rows);
+        if let Some(at) = layout.thrust(j) {
+            let (thrust_extrema, _) = critical_points(&q[at..at + NC]);
+            bounds.thrust(at, thrust_extrema.into_iter(), &mut rows);
+        }
+    }
+    rows.le
+}
+
+/// The bounds of T, δ and χ, `margin` inside, as rows linearized at p.
+struct Bounds<'a> {
+    sc: &'a [f64],
+    p: &'a [f64],
+    delta_max: f64,
+    rate_max: f64,
+    thrust: (f64, f64),
+}
+
+impl<'a> Bounds<'a> {
+    fn new(model: &Model, scales: &'a Scales, p: &'a [f64], margin: f64) -> Self {
+        let margin_t = margin * (model.max_thrust_n - model.min_thrust_n);
+        Bounds {
+            sc: &scales.0,
+            p,
+            delta_max: model.max_gimbal_rad * (1.0 - margin),
+            rate_max: model.max_gimbal_rate_radps * (1.0 - RATE_MARGIN_FACTOR * margin),
+            thrust: (model.min_thrust_n + margin_t, model.max_thrust_n - margin_t),
+        }
+    }
+
+    /// The terms of Σ basis_k·Δp̂_{at+k} (scaled) and Σ basis_k·p_{at+k}.
+    fn poly(&self, at: usize, basis: &[f64; NC]) -> (Vec<(usize, f64)>, f64) {
+        let terms = (0..NC)
+            .map(|k| (at + k, basis[k] * self.sc[at + k]))
+            .collect();
+        let value = (0..NC).map(|k| basis[k] * self.p[at + k]).sum();
+        (terms, value)
+    }
+
+    /// |δ(s)| ≤ δ_max at the finite points s.
+    fn delta(&self, at: usize, points: impl Iterator<Item = f64>, rows: &mut Rows) {
+        for s in points.filter(|s| s.is_finite()) {
+            let (terms, v) = self.poly(at, &legendre(s));
+            rows.le.push((terms.clone(), self.delta_max - v));
+            rows.le.push((negate(&terms), self.delta_max + v));
+        }
+    }
+
+    /// ±dδ/ds − χ_max·d ≤ 0 at the finite points s.
+    fn rate(&self, at: usize, dj: usize, points: impl Iterator<Item = f64>, rows: &mut Rows) {
+        let (chimax, d) = (self.rate_max, self.p[dj]);
+        for s in points.filter(|s| s.is_finite()) {
+            let (mut terms, v) = self.poly(at, &legendre_slope(s));
+            let mut neg = negate(&terms);
+            terms.push((dj, -chimax * self.sc[dj]));
+            neg.push((dj, -chimax * self.sc[dj]));
+            rows.le.push((terms, chimax * d - v));
+            rows.le.push((neg, chimax * d + v));
+        }
+    }
+
+    /// T_min ≤ T(s) ≤ T_max at the finite points s.
+    fn thrust(&self, at: usize, points: impl Iterator<Item = f64>, rows: &mut Rows) {
+        let (lo, hi) = self.thrust;
+        for s in points.filter(|s| s.is_finite()) {
+            let (terms, v) = self.poly(at, &legendre(s));
+            rows.le.push((terms.clone(), hi - v));
+            rows.le.push((negate(&terms), v - lo));
+        }
+    }
 }
 
 fn negate(terms: &[(usize, f64)]) -> Vec<(usize, f64)> {
@@ -233,74 +285,254 @@ pub struct Step {
     pub iterations: u32,
 }
 
-/// Solve one QP with the dense interior point ([`crate::polish::qp`]).
-/// An error says why it failed.
-pub fn solve(qp: &Qp, n: usize) -> Result<Step, String> {
-    let with_terminal = qp.terminal.is_some();
-    let path_slack = n + if with_terminal { 12 } else { 0 };
-    let nv = path_slack + usize::from(!qp.path.is_empty());
-    let mut q = vec![SLACK_WEIGHT; nv];
-    for (q, g) in q.iter_mut().zip(qp.mass_gradient).take(n) {
-        *q = if with_terminal { -g } else { 0.0 };
-    }
-    let mut diagonal = vec![SLACK_CURVATURE; nv];
-    diagonal[..n].fill(qp.proximal_weight);
-    let mut eq: Vec<Row> = qp.rows.eq.clone();
-    if let Some(t) = qp.terminal {
-        for i in 0..6 {
-            let mut terms: Vec<(usize, f64)> = t.jacobian[i]
-                .iter()
-                .enumerate()
-                .filter(|(_, v)| **v != 0.0)
-                .map(|(c, &v)| (c, v))
-                .collect();
-            terms.push((n + i, -1.0));
-            terms.push((n + 6 + i, 1.0));
-            eq.push((terms, -t.residual[i]));
+/// Solve one QP: first with the terminal and path rows hard (no slacks:
+/// thirteen fewer variables, and the twelve slack bounds the active-set
+/// method would otherwise add one by one); where that form is infeasible,
+/// or a multiplier of those rows exceeds the slacks' weight (the elastic
+/// form would then pay for a slack), the elastic form of the module docs.
+/// Where the hard form answers, it is the elastic form's answer exactly:
+/// its point with ν = 0 meets the elastic form's KKT conditions (each
+/// terminal multiplier within ±w, the path ones summing to at most w), and
+/// that QP is strictly convex. An error says why the QP failed.
+pub fn solve(qp: &Qp, n: usize) -> Result<Solved, String> {
+    if qp.terminal.is_some() {
+        if let Ok(solved) = Solved::new(qp, n, Form::Hard) {
+            if solved.within {
+                return Ok(solved);
+            }
         }
     }
-    // A row that no step within the trust box can reach is left out: it
-    // changes nothing in the answer, and most of the grid's rows are far
-    // from their bounds (Σ|a_i|·Δ < b: the row holds on the whole box).
-    let mut le: Vec<Row> = qp
-        .rows
-        .le
-        .iter()
+    Solved::new(qp, n, Form::Elastic)
+}
+
+/// The terminal and path rows with slacks (elastic) or without (hard).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Form {
+    Hard,
+    Elastic,
+}
+
+/// A solved QP ([`solve`]) that may take more bound rows ([`Solved::add`]).
+pub struct Solved {
+    pub step: Step,
+    /// The active-set method's state, where it answered.
+    solver: Option<crate::polish::active_set::Solver>,
+    form: Form,
+    n: usize,
+    /// Where the terminal rows start among the equalities.
+    terminal_at: usize,
+    with_terminal: bool,
+    path_rows: std::ops::Range<usize>,
+    slacks: std::ops::Range<usize>,
+    trust_radius: f64,
+    /// Whether the terminal and path multipliers are within the slacks'
+    /// weight ([`solve`]).
+    within: bool,
+}
+
+impl Solved {
+    /// [`solve`] in one form.
+    fn new(qp: &Qp, n: usize, form: Form) -> Result<Self, String> {
+        let elastic = form == Form::Elastic;
+        let with_terminal = qp.terminal.is_some();
+        let terminal_slacks = if with_terminal && elastic { 12 } else { 0 };
+        let path_slack = n + terminal_slacks;
+        let nv = path_slack + usize::from(elastic && !qp.path.is_empty());
+        let mut q = vec![SLACK_WEIGHT; nv];
+        for (q, g) in q.iter_mut().zip(qp.mass_gradient).take(n) {
+            *q = if with_terminal { -g } else { 0.0 };
+        }
+        let mut diagonal = vec![SLACK_CURVATURE; nv];
+        diagonal[..n].fill(qp.proximal_weight);
+        let mut eq: Vec<Row> = qp.rows.eq.clone();
+        if let Some(t) = qp.terminal {
+            for i in 0..6 {
+                let mut terms: Vec<(usize, f64)> = t.jacobian[i]
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, v)| **v != 0.0)
+                    .map(|(c, &v)| (c, v))
+                    .collect();
+                if elastic {
+                    terms.push((n + i, -1.0));
+                    terms.push((n + 6 + i, 1.0));
+                }
+                eq.push((terms, -t.residual[i]));
+            }
+        }
+        let mut le: Vec<Row> = reachable(&qp.rows.le, qp.trust_radius);
+        let path_rows = le.len()..le.len() + qp.path.len();
+        for (terms, rhs) in qp.path {
+            let mut terms = terms.clone();
+            if elastic {
+                terms.push((path_slack, -1.0));
+            }
+            le.push((terms, *rhs));
+        }
+        for i in 0..n {
+            le.push((vec![(i, 1.0)], qp.trust_radius));
+            le.push((vec![(i, -1.0)], qp.trust_radius));
+        }
+        for i in n..nv {
+            le.push((vec![(i, -1.0)], 0.0));
+        }
+        let problem = crate::polish::qp::Problem {
+            p: &diagonal,
+            q: &q,
+            eq: &eq,
+            le: &le,
+        };
+        // The active-set method first; in the elastic form the interior
+        // point where it fails (the hard form's failure sends the QP to the
+        // elastic one instead).
+        let (answer, solver) = match crate::polish::active_set::Solver::new(&problem) {
+            Ok(solver) => (solver.answer(), Some(solver)),
+            Err(e) if !elastic => return Err(e.to_string()),
+            Err(_) => (
+                crate::polish::qp::solve(&problem).map_err(|e| e.to_string())?,
+                None,
+            ),
+        };
+        let mut solved = Solved {
+            step: Step {
+                dp: Vec::new(),
+                multipliers: [0.0; 6],
+                path_multiplier: 0.0,
+                slack: 0.0,
+                iterations: 0,
+            },
+            solver,
+            form,
+            n,
+            terminal_at: qp.rows.eq.len(),
+            with_terminal,
+            path_rows,
+            slacks: n..path_slack,
+            trust_radius: qp.trust_radius,
+            within: false,
+        };
+        solved.read(&answer, answer.iterations);
+        Ok(solved)
+    }
+
+    /// The step and the multipliers' check from an answer that took
+    /// `iterations` changes.
+    fn read(&mut self, answer: &crate::polish::qp::Answer, iterations: u32) {
+        let at = self.terminal_at;
+        let with_terminal = self.with_terminal;
+        let multipliers: [f64; 6] =
+            std::array::from_fn(|i| if with_terminal { answer.y[at + i] } else { 0.0 });
+        let path = &answer.z[self.path_rows.clone()];
+        self.within = multipliers.iter().all(|y| y.abs() <= SLACK_WEIGHT)
+            && path.iter().sum::<f64>() <= SLACK_WEIGHT;
+        self.step = Step {
+            multipliers,
+            path_multiplier: path.iter().copied().fold(0.0, f64::max),
+            slack: answer.x[self.slacks.clone()].iter().sum(),
+            dp: answer.x[..self.n].to_vec(),
+            iterations,
+        };
+    }
+
+    /// The same QP with the bound rows `extra` too (in the step Δp̂),
+    /// continued from this answer ([`crate::polish::active_set::Solver`]):
+    /// false where it must be solved anew instead (no active-set state, the
+    /// grown QP's hard form failed or asks for slacks).
+    pub fn add(&mut self, extra: &[Row]) -> bool {
+        let Some(solver) = self.solver.as_mut() else {
+            return false;
+        };
+        let before = solver.answer().iterations;
+        let grown = solver.add(&reachable(extra, self.trust_radius));
+        let answer = solver.answer();
+        let ok = grown.is_ok();
+        if ok {
+            self.read(&answer, answer.iterations - before);
+        } else {
+            self.solver = None;
+        }
+        ok && (self.within || self.form == Form::Elastic)
+    }
+}
+
+/// The rows that a step within the trust box Δ can reach: a row with
+/// Σ|a_i|·Δ < b holds on the whole box and changes nothing in the answer
+/// (most of the grid's rows are far from their bounds).
+fn reachable(rows: &[Row], trust_radius: f64) -> Vec<Row> {
+    rows.iter()
         .filter(|(terms, rhs)| {
-            terms.iter().map(|(_, v)| v.abs()).sum::<f64>() * qp.trust_radius >= *rhs
+            terms.iter().map(|(_, v)| v.abs()).sum::<f64>() * trust_radius >= *rhs
         })
         .cloned()
-        .collect();
-    let path_rows = le.len()..le.len() + qp.path.len();
-    for (terms, rhs) in qp.path {
-        let mut terms = terms.clone();
-        terms.push((path_slack, -1.0));
-        le.push((terms, *rhs));
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A QP of the polish's shape: n steps within a box, a few bound rows,
+    /// six dense terminal rows with residual `r`, a path row.
+    fn shaped(rng: &mut ChaCha8Rng, n: usize, r: f64) -> (Rows, Terminal, Vec<f64>, Vec<Row>) {
+        let mut rows = Rows::default();
+        for k in 0..n / 3 {
+            rows.le
+                .push((vec![(k, 1.0), (k + 1, -0.5)], rng.gen_range(0.0..0.3)));
+        }
+        rows.eq.push((vec![(0, 1.0), (n - 1, -1.0)], 0.0));
+        let jacobian = std::array::from_fn(|_| (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect());
+        let residual = std::array::from_fn(|_| r * rng.gen_range(-1.0..1.0));
+        let gradient = (0..n).map(|_| rng.gen_range(-0.1..0.1)).collect();
+        let path = vec![(
+            (0..n).map(|c| (c, rng.gen_range(-1.0..1.0))).collect(),
+            0.05,
+        )];
+        (rows, Terminal { jacobian, residual }, gradient, path)
     }
-    for i in 0..n {
-        le.push((vec![(i, 1.0)], qp.trust_radius));
-        le.push((vec![(i, -1.0)], qp.trust_radius));
+
+    /// Where the hard form answers within the slacks' weight, it is the
+    /// elastic form's answer (module docs of [`solve`]); where the
+    /// linearized landing is out of the box's reach, the elastic form
+    /// answers, with slacks.
+    #[test]
+    fn the_hard_form_is_the_elastic_forms_answer() {
+        let mut rng = ChaCha8Rng::seed_from_u64(38);
+        let (mut hard, mut elastic) = (0, 0);
+        for case in 0..60 {
+            let n = rng.gen_range(12..40);
+            let r = if case % 2 == 0 { 0.01 } else { 50.0 };
+            let (rows, terminal, gradient, path) = shaped(&mut rng, n, r);
+            let qp = Qp {
+                rows: &rows,
+                terminal: Some(&terminal),
+                mass_gradient: &gradient,
+                trust_radius: 0.5,
+                proximal_weight: 0.3,
+                path: &path,
+            };
+            let by_elastic = Solved::new(&qp, n, Form::Elastic).unwrap();
+            let chosen = solve(&qp, n).unwrap();
+            match Solved::new(&qp, n, Form::Hard) {
+                Ok(h) if h.within => {
+                    hard += 1;
+                    assert_eq!(chosen.form, Form::Hard, "case {case}");
+                    assert!(by_elastic.step.slack < 1e-9, "case {case}");
+                    for (a, b) in h.step.dp.iter().zip(&by_elastic.step.dp) {
+                        assert!((a - b).abs() < 1e-8, "case {case}: {a} {b}");
+                    }
+                    for (a, b) in h.step.multipliers.iter().zip(&by_elastic.step.multipliers) {
+                        assert!((a - b).abs() < 1e-6 * (1.0 + b.abs()), "case {case}");
+                    }
+                }
+                _ => {
+                    elastic += 1;
+                    assert_eq!(chosen.form, Form::Elastic, "case {case}");
+                    assert!(by_elastic.step.slack > 1e-6, "case {case}");
+                }
+            }
+        }
+        assert!(hard > 20 && elastic > 20, "{hard} {elastic}");
     }
-    for i in n..nv {
-        le.push((vec![(i, -1.0)], 0.0));
-    }
-    let problem = crate::polish::qp::Problem {
-        p: &diagonal,
-        q: &q,
-        eq: &eq,
-        le: &le,
-    };
-    // The active-set method first; the interior point where it fails.
-    let answer = crate::polish::active_set::solve(&problem)
-        .or_else(|_| crate::polish::qp::solve(&problem))
-        .map_err(|e| e.to_string())?;
-    let at = qp.rows.eq.len();
-    let multipliers = std::array::from_fn(|i| if with_terminal { answer.y[at + i] } else { 0.0 });
-    Ok(Step {
-        multipliers,
-        path_multiplier: answer.z[path_rows].iter().copied().fold(0.0, f64::max),
-        slack: answer.x[n..path_slack].iter().sum(),
-        dp: answer.x[..n].to_vec(),
-        iterations: answer.iterations,
-    })
 }
