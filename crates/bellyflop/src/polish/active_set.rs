@@ -30,6 +30,10 @@ const VIOLATION: f64 = 1e-11;
 /// J·c outside their span, ‖d₂‖, is below this fraction of ‖d‖.
 const DEPENDENT: f64 = 1e-12;
 
+/// A row with more terms than this is multiplied in dense form
+/// ([`State::directions`]).
+const DENSE_ROW: usize = 16;
+
 /// Active-set changes allowed per variable and row (a guard against
 /// cycling under rounding; exact arithmetic needs at most one add per row
 /// between drops).
@@ -66,6 +70,8 @@ struct State {
     d: Vec<f64>,
     z: Vec<f64>,
     step: Vec<f64>,
+    /// A dense row, scattered.
+    dense: Vec<f64>,
 }
 
 impl State {
@@ -90,6 +96,7 @@ impl State {
             d: vec![0.0; n],
             z: vec![0.0; n],
             step: vec![0.0; n],
+            dense: vec![0.0; n],
         }
     }
 
@@ -104,9 +111,23 @@ impl State {
     fn directions(&mut self, c: Normal) -> (f64, f64) {
         let (n, q) = (self.n, self.active.len());
         let terms = &self.rows[c.row].0;
-        for (i, d) in self.d.iter_mut().enumerate() {
-            let col = &self.j[i * n..(i + 1) * n];
-            *d = c.sign * terms.iter().map(|&(k, v)| v * col[k]).sum::<f64>();
+        if terms.len() > DENSE_ROW {
+            // A dense row (the terminal conditions'): scattered once, each
+            // dᵢ a contiguous dot product, which vectorizes where the
+            // gathers of the sparse form do not.
+            self.dense.fill(0.0);
+            for &(k, v) in terms {
+                self.dense[k] += c.sign * v;
+            }
+            for (i, d) in self.d.iter_mut().enumerate() {
+                let col = &self.j[i * n..(i + 1) * n];
+                *d = col.iter().zip(&self.dense).map(|(j, c)| j * c).sum();
+            }
+        } else {
+            for (i, d) in self.d.iter_mut().enumerate() {
+                let col = &self.j[i * n..(i + 1) * n];
+                *d = c.sign * terms.iter().map(|&(k, v)| v * col[k]).sum::<f64>();
+            }
         }
         self.z.fill(0.0);
         for i in q..n {

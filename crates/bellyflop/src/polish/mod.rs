@@ -88,9 +88,27 @@ const RHO_GROW: f64 = 0.75;
 /// penalty would weigh against the mass and so stall the iteration.
 const DEAD_BAND: f64 = 1e-5;
 
-/// The exact penalty w·max(0, Σ|r̂| − [`DEAD_BAND`]).
-fn penalty(residual: f64) -> f64 {
-    SLACK_WEIGHT * (residual - DEAD_BAND).max(0.0)
+/// The exact penalty ν·max(0, Σ|r̂| − [`DEAD_BAND`]) at weight ν.
+fn penalty(weight: f64, residual: f64) -> f64 {
+    weight * (residual - DEAD_BAND).max(0.0)
+}
+
+/// The merit's weight ν of the landing residual: at least this ...
+const MERIT_WEIGHT_MIN: f64 = 1e-2;
+/// ... and this many times the largest terminal multiplier seen in the
+/// run, never decreasing (an exact penalty needs ν > ‖μ‖∞: Nocedal &
+/// Wright, §18.3), and at most the QPs' slack weight. With ν at the slack
+/// weight itself (100, 2000 times the multipliers of the seeded envelope),
+/// a step that gained 0.3 kg was rejected for a 10 µm residual that the
+/// next step removes, and the loop crept to its cap.
+const MERIT_WEIGHT_FACTOR: f64 = 10.0;
+
+/// The merit's weight after a QP with terminal multipliers μ.
+fn merit_weight(weight: f64, multipliers: &[f64; 6]) -> f64 {
+    let largest = multipliers.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    weight
+        .max(MERIT_WEIGHT_FACTOR * largest)
+        .clamp(MERIT_WEIGHT_MIN, SLACK_WEIGHT)
 }
 
 /// Why a polish failed.
@@ -144,12 +162,15 @@ struct Shot {
 }
 
 impl Problem {
-    /// The merit φ = −m_f/M + w·(Σ|r̂| + v) of a shot, v its path
-    /// violation.
-    fn merit(&self, shot: &Shot) -> f64 {
+    /// The merit φ = −m_f/M + ν·Σ|r̂| + w·v of a shot at the residual's
+    /// weight ν ([`merit_weight`]), v its path violation.
+    fn merit(&self, shot: &Shot, weight: f64) -> f64 {
         let y = &shot.y;
         -y[6] / MASS_SCALE_KG
-            + penalty(self.residual(y).iter().map(|r| r.abs()).sum::<f64>())
+            + penalty(
+                weight,
+                self.residual(y).iter().map(|r| r.abs()).sum::<f64>(),
+            )
             + SLACK_WEIGHT * shot.path
     }
 
@@ -420,6 +441,7 @@ fn iterate(
     let mut iteration = 0;
     let mut last = Multipliers::default();
     let mut converged = false;
+    let mut nu = MERIT_WEIGHT_MIN;
     while iteration < MAX_ITERATIONS {
         iteration += 1;
         let shot = problem.shot_of(&sens);
@@ -444,11 +466,12 @@ fn iterate(
             terminal: step.multipliers,
             path: step.path_multiplier,
         };
-        let phi = problem.merit(&shot);
+        nu = merit_weight(nu, &step.multipliers);
+        let phi = problem.merit(&shot, nu);
         let gain: f64 = gradient.iter().zip(&step.dp).map(|(g, d)| g * d).sum();
         let predicted = phi
             - (-y[6] / MASS_SCALE_KG - gain
-                + penalty(linear_residual(&terminal, &step.dp))
+                + penalty(nu, linear_residual(&terminal, &step.dp))
                 + SLACK_WEIGHT * linear_path(shot.path, &path, &step.dp));
         history.push(PolishIteration {
             iteration: *total + iteration,
@@ -480,7 +503,7 @@ fn iterate(
             &terminal,
             p,
             candidate,
-            phi,
+            (phi, nu),
             predicted,
             qp_iterations,
         );
@@ -493,9 +516,13 @@ fn iterate(
         if rho > 0.0 {
             *p = candidate;
             sens = shooting::sensitivity(&problem.model, &problem.layout, problem.y0, p);
-        } else if watch_new(&mut watch, tried.as_ref().map_or(&[][..], |s| &s.below)) {
-            // The step went through the ground where no row was: the same
-            // QP again with those rows, at the same weight.
+        } else if watch_new(&mut watch, tried.as_ref().map_or(&[][..], |s| &s.below))
+            && violates(&problem.path_rows(&sens, &watch), &step.dp)
+        {
+            // The step went through the ground where no row was, and the
+            // rows there, linearized, see it: the same QP again with them,
+            // at the same weight. (Where they do not, that QP's answer is
+            // this step again: measured, a whole iteration repeated.)
             continue;
         }
         (weight, floor) = next_weight(weight, floor, rho);
@@ -595,6 +622,12 @@ fn watch_new(watch: &mut Vec<usize>, below: &[usize]) -> bool {
         }
     }
     watch.len() > before
+}
+
+/// Whether the step Δp̂ violates a path row a·Δp̂ ≤ b.
+fn violates(rows: &[(Vec<(usize, f64)>, f64)], dp: &[f64]) -> bool {
+    rows.iter()
+        .any(|(terms, b)| terms.iter().map(|&(c, a)| a * dp[c]).sum::<f64>() > *b)
 }
 
 /// Σ|r̂ + J·Δp̂|: the linearized residual from the step itself, not the
@@ -813,12 +846,12 @@ fn judge(
     terminal: &Terminal,
     p: &[f64],
     candidate: Vec<f64>,
-    phi: f64,
+    (phi, nu): (f64, f64),
     predicted: f64,
     qp_iterations: &mut u32,
 ) -> (Vec<f64>, f64, Option<Shot>) {
     let decrease = |q: &[f64]| match problem.shoot(q) {
-        Ok(shot) => (phi - problem.merit(&shot), Some(shot)),
+        Ok(shot) => (phi - problem.merit(&shot, nu), Some(shot)),
         Err(_) => (f64::NEG_INFINITY, None),
     };
     let (actual, shot) = decrease(&candidate);
