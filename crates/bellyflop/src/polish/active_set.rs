@@ -379,6 +379,11 @@ impl Solver {
         Ok(())
     }
 
+    /// The active set's changes so far.
+    pub fn changes(&self) -> u32 {
+        self.state.changes as u32
+    }
+
     /// The answer: x, the multipliers, and the active set's changes so far.
     pub fn answer(&self) -> Answer {
         let equalities = self.state.equalities;
@@ -584,7 +589,7 @@ mod tests {
                 ..whole
             })
             .unwrap();
-            let before = solver.answer().iterations;
+            let before = solver.changes();
             solver.add(&le[split..]).unwrap();
             let grown = solver.answer();
             for (a, b) in grown.x.iter().zip(&anew.x) {

@@ -442,7 +442,7 @@ impl Solved {
         let Some(solver) = self.solver.as_mut() else {
             return false;
         };
-        let before = solver.answer().iterations;
+        let before = solver.changes();
         let grown = solver.add(&reachable(extra, self.trust_radius));
         let answer = solver.answer();
         let ok = grown.is_ok();
