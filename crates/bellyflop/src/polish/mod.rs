@@ -484,16 +484,7 @@ fn iterate(
             proximal_weight: weight,
             qp_iterations: *qp_iterations - before_qp,
         });
-        if residual < RESIDUAL_TOLERANCE
-            && shot.path <= PATH_TOLERANCE
-            && gain * MASS_SCALE_KG < MASS_TOLERANCE_KG
-            // Out of its bounds between the old extrema, where no step
-            // that the merit can accept takes it back (the model predicts
-            // no decrease): the corrections below do it. Without this the
-            // loop rejected steps to its cap, its ratio −1e302 as the
-            // predicted decrease went to zero (measured on the envelope).
-            && (within_bounds(problem, p) || predicted <= 0.0)
-        {
+        if at_tolerances(problem, p, (residual, shot.path, gain), predicted) {
             converged = true;
             break;
         }
@@ -542,6 +533,25 @@ fn iterate(
     );
     *total += iteration;
     Ok((iteration, shot, last, converged))
+}
+
+/// Whether the iteration stops at p: the landing residual, the path
+/// violation and the QP's predicted gain (scaled) under their tolerances,
+/// and p within its bounds between the extrema, or out of them where no
+/// step that the merit can accept takes it back (the model predicts no
+/// decrease): the corrections after the loop do it. Without that clause the
+/// loop rejected steps to its cap, its ratio −1e302 as the predicted
+/// decrease went to zero (measured on the envelope).
+fn at_tolerances(
+    problem: &Problem,
+    p: &[f64],
+    (residual, path, gain): (f64, f64, f64),
+    predicted: f64,
+) -> bool {
+    residual < RESIDUAL_TOLERANCE
+        && path <= PATH_TOLERANCE
+        && gain * MASS_SCALE_KG < MASS_TOLERANCE_KG
+        && (within_bounds(problem, p) || predicted <= 0.0)
 }
 
 /// The multipliers of the last QP of the iteration: its terminal rows',
