@@ -484,7 +484,7 @@ fn iterate(
             proximal_weight: weight,
             qp_iterations: *qp_iterations - before_qp,
         });
-        if at_tolerances(problem, p, (residual, shot.path, gain), predicted) {
+        if at_tolerances(problem, p, residual, shot.path, gain, predicted) {
             converged = true;
             break;
         }
@@ -545,7 +545,9 @@ fn iterate(
 fn at_tolerances(
     problem: &Problem,
     p: &[f64],
-    (residual, path, gain): (f64, f64, f64),
+    residual: f64,
+    path: f64,
+    gain: f64,
     predicted: f64,
 ) -> bool {
     residual < RESIDUAL_TOLERANCE

@@ -443,15 +443,13 @@ impl Solved {
             return false;
         };
         let before = solver.changes();
-        let grown = solver.add(&reachable(extra, self.trust_radius));
-        let answer = solver.answer();
-        let ok = grown.is_ok();
-        if ok {
-            self.read(&answer, answer.iterations - before);
-        } else {
+        if solver.add(&reachable(extra, self.trust_radius)).is_err() {
             self.solver = None;
+            return false;
         }
-        ok && (self.within || self.form == Form::Elastic)
+        let answer = solver.answer();
+        self.read(&answer, answer.iterations - before);
+        self.within || self.form == Form::Elastic
     }
 }
 
