@@ -208,6 +208,19 @@ pub const DOCS: &[Doc] = &[
         "Optional. Final time t_f of the straight-line initial guess (t_f itself is optimized). Left out, it is derived from the state: the time to stop the descent at T_max against gravity and drag, plus the spare altitude flown at the initial descent rate. A guess above 1000 is clamped to 1000 with a warning."),
     doc!("discretization", "final_mass_guess_kg", "kg", open(0.0, f64::INFINITY),
         "Optional. Final mass of the straight-line initial guess. Left out, it is derived from the state: initial.mass_kg less the propellant the mean thrust (T_min + T_max)/2 burns in the derived t_f. A guess outside [vehicle.dry_mass_kg, initial.mass_kg] is clamped into it with a warning."),
+    // Operational path constraints (issue 37), every one optional.
+    doc!("constraints", "cone_half_angle_deg", "deg", closed(1.0, 89.0),
+        "Approach cone about the pad: half-angle gamma from the vertical, |x - x_f| <= (z - z_f)*tan(gamma). The initial state must lie inside it."),
+    doc!("constraints", "max_pitch_rate_degps", "deg/s", open_closed(0.0, 360.0),
+        "Pitch-rate limit: |w| <= w_max."),
+    doc!("constraints", "max_tilt_deg", "deg", closed(0.0, 90.0),
+        "Tilt limit theta_max: |theta| <= theta_max below tilt_below_m above the pad (the limit opens by 1 deg per metre above it). Together with tilt_below_m."),
+    doc!("constraints", "tilt_below_m", "m", closed(0.0, 1e5),
+        "Height above the pad below which the tilt limit holds. Together with max_tilt_deg."),
+    doc!("constraints", "final_descent_m", "m", closed(0.0, 1e5),
+        "Vertical final descent: the height above the pad below which |Vx| <= final_descent_lateral_mps (the limit opens by 1 m/s per metre above it). Together with final_descent_lateral_mps."),
+    doc!("constraints", "final_descent_lateral_mps", "m/s", closed(0.0, 100.0),
+        "Largest lateral speed |Vx| in the final descent. Together with final_descent_m."),
     doc!("solver", "method", "", Allowed::Choice(METHODS),
         "Solution method: \"direct\" is the interior-point method on the nonlinear program P2 (default; 2-3x faster than CasADi + IPOPT on the dispersed benchmark, see BENCHMARKS.md); \"scvx\" is the paper's successive convexification."),
     doc!("solver.direct", "tolerance", "scaled", TOLERANCE,
@@ -292,6 +305,7 @@ const TABLES: &[(&str, &str)] = &[
         "State at touchdown (Eq. 4). The final mass is free above vehicle.dry_mass_kg.",
     ),
     ("discretization", "LGR collocation (Section 3.2)."),
+    ("constraints", "Operational path constraints (issue 37), each optional and off when left out, as in the paper's case. Each holds along the whole flight, in continuous time. Uncomment a limit (and the [constraints] line) to switch it on; the values written are the recommended ones. The altitude-triggered limits are smoothed by a softplus of width 1 m (see `problem::constraints`)."),
     (
         "solver",
         "Solver settings: the method, then successive convexification (Section 3.4). Optional: a missing key takes its default.",
@@ -384,7 +398,7 @@ pub const COMMENTED: &[(&str, &str)] = &[
 
 /// Write one `key = value` with its comment (`# key = value` for the
 /// [`COMMENTED`] fields).
-fn entry(out: &mut String, table: &str, key: &str, value: &Value) {
+fn entry(out: &mut String, table: &str, key: &str, value: &Value, commented: bool) {
     match DOCS.iter().find(|d| d.table == table && d.key == key) {
         Some(d) => {
             comment(out, d.text);
@@ -397,7 +411,7 @@ fn entry(out: &mut String, table: &str, key: &str, value: &Value) {
         }
         None => comment(out, "(undocumented field)"),
     }
-    let hash = if COMMENTED.contains(&(table, key)) {
+    let hash = if commented || COMMENTED.contains(&(table, key)) {
         "# "
     } else {
         ""
@@ -409,9 +423,19 @@ fn entry(out: &mut String, table: &str, key: &str, value: &Value) {
 /// allowed range.
 pub fn template(case: &Case) -> String {
     let v = serde_json::to_value(case).expect("a Case serializes");
-    let Value::Object(top) = v else {
+    let Value::Object(mut top) = v else {
         panic!("a Scenario serializes to an object")
     };
+    // Without constraints, the table is written with the recommended
+    // limits, commented out.
+    let no_constraints = case.scenario.constraints.is_empty();
+    if no_constraints {
+        let recommended = bellyflop::input::scenario::Constraints::recommended();
+        top.insert(
+            "constraints".into(),
+            serde_json::to_value(recommended).expect("serializes"),
+        );
+    }
     let mut out = String::new();
     out.push_str(
         "# bellyflop scenario, written by `bellyflop init`: the paper's case\n\
@@ -449,9 +473,11 @@ pub fn template(case: &Case) -> String {
         let heading = TABLES.iter().find(|(t, _)| *t == table).map(|(_, h)| *h);
         let fields: Vec<(&String, &Value)> = map.iter().filter(|(_, v)| !v.is_object()).collect();
         out.push('\n');
+        let commented = no_constraints && table == "constraints";
         if !table.is_empty() {
             comment(&mut out, heading.unwrap_or("(undocumented table)"));
-            let _ = writeln!(out, "[{table}]");
+            let hash = if commented { "# " } else { "" };
+            let _ = writeln!(out, "{hash}[{table}]");
         }
         // Documented keys in the order of DOCS, then any others.
         let mut ordered: Vec<(&String, &Value)> = Vec::new();
@@ -466,7 +492,7 @@ pub fn template(case: &Case) -> String {
             }
         }
         for (k, v) in ordered {
-            entry(&mut out, table, k, v);
+            entry(&mut out, table, k, v, commented);
         }
     }
     out
@@ -511,16 +537,43 @@ mod tests {
             Case::from_toml_str(&uncommented).expect("valid"),
             Case::paper()
         );
-        // Every key is written once, each with its comment above it.
+        // Every key is written once, each with its comment above it (the
+        // constraints commented out).
         for d in DOCS {
-            let line = format!("\n{} = ", d.key);
+            let hash = if d.table == "constraints" { "# " } else { "" };
+            let line = format!("\n{hash}{} = ", d.key);
             assert!(uncommented.contains(&line), "{} missing", d.key);
         }
     }
 
+    /// The commented `[constraints]` table, uncommented, is the paper's
+    /// case with the recommended limits; a case that has constraints
+    /// writes them as they are, and reads back.
+    #[test]
+    fn the_constraints_table_uncommented_switches_the_recommended_limits_on() {
+        let text = template(&Case::paper());
+        let mut on = text.replace("\n# [constraints]\n", "\n[constraints]\n");
+        for d in DOCS.iter().filter(|d| d.table == "constraints") {
+            on = on.replace(&format!("\n# {} = ", d.key), &format!("\n{} = ", d.key));
+        }
+        let read = Case::from_toml_str(&on).expect("valid");
+        let recommended = bellyflop::input::scenario::Constraints::recommended();
+        assert_eq!(read.scenario.constraints, recommended);
+        let mut case = Case::paper();
+        case.scenario.constraints = recommended;
+        let written = template(&case);
+        assert!(written.contains("\n[constraints]\n"), "{written}");
+        assert_eq!(
+            Case::from_toml_str(&written).unwrap().scenario.constraints,
+            case.scenario.constraints
+        );
+    }
+
     #[test]
     fn every_documented_field_exists() {
-        let v = serde_json::to_value(Case::paper()).unwrap();
+        let mut case = Case::paper();
+        case.scenario.constraints = bellyflop::input::scenario::Constraints::recommended();
+        let v = serde_json::to_value(case).unwrap();
         for d in DOCS {
             let mut field = &v;
             for part in d.table.split('.').filter(|p| !p.is_empty()) {

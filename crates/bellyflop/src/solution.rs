@@ -325,7 +325,7 @@ impl Checks {
 
 /// What the flight of an answer reaches: the path constraints along it,
 /// in continuous time ([`crate::verify::path`]).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PathReport {
     /// min over [0, t_f] of z(t) − z_f \[m\] (≈ 0 at the touchdown).
     pub min_clearance_m: f64,
@@ -342,6 +342,25 @@ pub struct PathReport {
     /// max |χ| [rad/s].
     pub gimbal_rate_max_radps: f64,
     pub final_mass_kg: f64,
+    /// The operational constraints of the scenario (issue 37), each at its
+    /// worst along the flight; empty without any.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub limits: Vec<LimitReport>,
+}
+
+/// One operational constraint along a flight: the largest value of its
+/// rows g(y) ≤ 0 ([`crate::problem::constraints`]), and when.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LimitReport {
+    pub limit: crate::problem::constraints::Limit,
+    /// max over [0, t_f] of g, in the limit's unit (≤ 0: held; ≈ 0:
+    /// active).
+    pub worst: f64,
+    /// When it is largest \[s\].
+    pub t_s: f64,
+    /// The scale of its rows, against which [`crate::verify::path`]'s
+    /// tolerance is relative.
+    pub scale: f64,
 }
 
 /// A solved (or best-effort) landing trajectory in physical units.

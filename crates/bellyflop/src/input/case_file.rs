@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::{
-    Case, Discretization, Environment, InitialState, Scenario, TerminalState, Vehicle,
+    Case, Constraints, Discretization, Environment, InitialState, Scenario, TerminalState, Vehicle,
 };
 use crate::input::settings::SolverSettings;
 
@@ -40,6 +40,8 @@ struct CaseFile<D> {
     initial: InitialState,
     terminal: TerminalState,
     discretization: D,
+    #[serde(default, skip_serializing_if = "Constraints::is_empty")]
+    constraints: Constraints,
     #[serde(default)]
     solver: SolverSettings,
 }
@@ -54,6 +56,7 @@ impl Serialize for Case {
             initial: s.initial,
             terminal: s.terminal,
             discretization: s.discretization,
+            constraints: s.constraints,
             solver: self.solver.clone(),
         }
         .serialize(ser)
@@ -77,6 +80,7 @@ impl<'de> Deserialize<'de> for Case {
                 final_mass_guess_kg: f64::NAN,
                 mesh: d.mesh,
             },
+            constraints: f.constraints,
         };
         let warnings =
             crate::input::guess::resolve(&mut scenario, d.tf_guess_s, d.final_mass_guess_kg);

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::input::error::InputError;
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::settings::SolverSettings;
+pub use crate::problem::constraints::Constraints;
 
 /// Vehicle parameters (paper Table 1, plus the drag coefficient from NOTES.md).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -151,6 +152,10 @@ pub struct Scenario {
     pub initial: InitialState,
     pub terminal: TerminalState,
     pub discretization: Discretization,
+    /// The operational path constraints (issue 37), each optional; none in
+    /// the paper's case.
+    #[serde(default, skip_serializing_if = "Constraints::is_empty")]
+    pub constraints: Constraints,
 }
 
 /// What a scenario file holds: the problem and, in its optional `[solver]`

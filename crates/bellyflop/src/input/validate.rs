@@ -16,7 +16,7 @@ use crate::input::error::InputError;
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::range::{check_all, count_in_range, in_range, Range};
 use crate::input::scenario::{
-    Discretization, Environment, InitialState, Scenario, TerminalState, Vehicle,
+    Constraints, Discretization, Environment, InitialState, Scenario, TerminalState, Vehicle,
 };
 use crate::input::settings::SolverSettings;
 
@@ -187,6 +187,23 @@ const REFINEMENT_PASSES: (usize, usize) = (1, 20);
 /// rule (within an explicit mesh's [`INTERVAL_POINTS`]).
 const REFINEMENT_POINTS: (usize, usize) = (2, 20);
 
+// ---------------------------------------------------------------------------
+// Operational constraints (issue 37), each optional.
+// ---------------------------------------------------------------------------
+
+/// Approach cone half-angle from the vertical: at least 1° (a needle would
+/// leave no room to steer), at most 89° (90° is the ground itself).
+const CONE_HALF_ANGLE: Range = Range::closed(1.0, 89.0, "deg");
+/// Pitch-rate limit: above 0, at most one turn per second.
+const MAX_PITCH_RATE: Range = Range::open_closed(0.0, 360.0, "deg/s");
+/// Tilt limit: 0 (upright) to 90° (belly-first).
+const MAX_TILT: Range = Range::closed(0.0, 90.0, "deg");
+/// Heights above the pad of the altitude-triggered limits: the ground to
+/// the largest altitude of [`POS_Z`].
+const TRIGGER_HEIGHT: Range = Range::closed(0.0, 1e5, "m");
+/// Lateral-speed limit of the final descent: 0 to 100 m/s.
+const LATERAL_SPEED: Range = Range::closed(0.0, 100.0, "m/s");
+
 /// Check every field of a scenario against its allowed range, then check that
 /// related fields agree with each other.
 pub fn scenario(s: &Scenario) -> Result<(), InputError> {
@@ -196,7 +213,69 @@ pub fn scenario(s: &Scenario) -> Result<(), InputError> {
     initial(&s.initial)?;
     terminal(&s.terminal)?;
     discretization(&s.discretization)?;
+    constraints(&s.constraints)?;
     consistency(s)
+}
+
+/// Constraint ranges: see [`CONE_HALF_ANGLE`], [`MAX_PITCH_RATE`],
+/// [`MAX_TILT`], [`TRIGGER_HEIGHT`], [`LATERAL_SPEED`]; the limits given as
+/// a pair (a bound and its altitude) must be given together.
+fn constraints(c: &Constraints) -> Result<(), InputError> {
+    let rows = [
+        (
+            "constraints.cone_half_angle_deg",
+            c.cone_half_angle_deg,
+            CONE_HALF_ANGLE,
+        ),
+        (
+            "constraints.max_pitch_rate_degps",
+            c.max_pitch_rate_degps,
+            MAX_PITCH_RATE,
+        ),
+        ("constraints.max_tilt_deg", c.max_tilt_deg, MAX_TILT),
+        ("constraints.tilt_below_m", c.tilt_below_m, TRIGGER_HEIGHT),
+        (
+            "constraints.final_descent_m",
+            c.final_descent_m,
+            TRIGGER_HEIGHT,
+        ),
+        (
+            "constraints.final_descent_lateral_mps",
+            c.final_descent_lateral_mps,
+            LATERAL_SPEED,
+        ),
+    ];
+    for (field, value, range) in rows {
+        if let Some(v) = value {
+            range.check(field, v)?;
+        }
+    }
+    let pairs = [
+        (
+            ("constraints.max_tilt_deg", c.max_tilt_deg),
+            ("constraints.tilt_below_m", c.tilt_below_m),
+        ),
+        (
+            (
+                "constraints.final_descent_lateral_mps",
+                c.final_descent_lateral_mps,
+            ),
+            ("constraints.final_descent_m", c.final_descent_m),
+        ),
+    ];
+    for ((a, va), (b, vb)) in pairs {
+        let (given, missing, value) = match (va, vb) {
+            (Some(v), None) => (a, b, v),
+            (None, Some(v)) => (b, a, v),
+            _ => continue,
+        };
+        return Err(InputError::Inconsistent {
+            field: given.into(),
+            value,
+            reason: format!("must be given together with {missing}"),
+        });
+    }
+    Ok(())
 }
 
 /// The name labels outputs, so it must contain a non-blank character.

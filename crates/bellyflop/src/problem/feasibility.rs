@@ -59,6 +59,7 @@ use std::fmt;
 use serde::Serialize;
 
 use crate::input::scenario::Scenario;
+use crate::problem::constraints::{self, Limit};
 
 /// Integration step of the comparison solutions \[s\].
 const STEP_S: f64 = 5e-3;
@@ -100,6 +101,18 @@ pub enum Certificate {
     Altitude(StoppingBound),
     /// The descent cannot be slowed to Vz_f before the propellant runs out.
     Propellant(StoppingBound),
+    /// The initial state already breaks an operational path constraint
+    /// (issue 37), which must hold along the whole flight from t = 0.
+    InitialState(InitialViolation),
+}
+
+/// An operational constraint that the initial state breaks: its row g(y₀)
+/// > 0 ([`crate::problem::constraints`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct InitialViolation {
+    pub limit: Limit,
+    /// g(y₀), in the limit's unit ([`Limit::unit`]).
+    pub excess: f64,
 }
 
 impl fmt::Display for Certificate {
@@ -114,6 +127,13 @@ impl fmt::Display for Certificate {
                 f,
                 "no trajectory exists (certified before solving by the propellant bound): the propellant lasts at most {:.2} s even at T_min, and the descent at {:.1} m/s cannot be slowed to {:.1} m/s within that time by the thrust impulse the propellant gives with the largest possible drag",
                 b.burn_time_max_s, b.descent_rate_mps, b.final_descent_rate_mps
+            ),
+            Certificate::InitialState(v) => write!(
+                f,
+                "no trajectory exists: the initial state breaks {} by {:.4} {}, and it must hold along the whole flight from t = 0",
+                v.limit.describe(),
+                v.excess,
+                v.limit.unit()
             ),
         }
     }
@@ -201,6 +221,9 @@ pub fn stopping_bound(s: &Scenario) -> Option<StoppingBound> {
 /// A certificate that no trajectory exists, or `None` when the bound leaves
 /// room for one (which does not mean that one exists).
 pub fn certify(s: &Scenario) -> Option<Certificate> {
+    if let Some(v) = initial_violation(s) {
+        return Some(Certificate::InitialState(v));
+    }
     let b = stopping_bound(s)?;
     if b.distance_m > b.available_m * (1.0 + RELATIVE_MARGIN) + ALTITUDE_MARGIN_M {
         Some(Certificate::Altitude(b))
@@ -209,6 +232,18 @@ pub fn certify(s: &Scenario) -> Option<Certificate> {
     } else {
         None
     }
+}
+
+/// The operational constraint that the initial state breaks most, if any
+/// (beyond rounding: 1e-9 of the row's scale).
+pub fn initial_violation(s: &Scenario) -> Option<InitialViolation> {
+    let rows = constraints::rows(s);
+    let y0 = s.initial.state_si();
+    let (i, g) = constraints::worst(&rows, &y0[..7])?;
+    (g > 1e-9 * rows[i].scale()).then_some(InitialViolation {
+        limit: rows[i].limit,
+        excess: g,
+    })
 }
 
 /// Why a method's local infeasibility is not a proof, for the message of a

@@ -16,15 +16,33 @@
 //!   does not overshoot them). Each within [`CONTROL_TOLERANCE`] of its
 //!   bound's scale (T_max − T_min, δ_max, χ_max).
 //! - **Mass:** m(t_f) ≥ m_dry (m falls monotonically).
+//! - **Operational constraints** (issue 37, [`crate::problem::constraints`]):
+//!   each row g(y) ≤ 0 at every step of the integration, then at 1/4, 1/2
+//!   and 3/4 of each step, where x, z and θ are the cubic Hermite
+//!   interpolants of (x, Vx), (z, Vz), (θ, w) and Vx, w are linear (their
+//!   error O(h²·ÿ)/8: the steps are at most [`LIMIT_STEP_S`] when the
+//!   scenario has constraints). Each within [`LIMIT_TOLERANCE`] of its
+//!   rows' scale.
 
 use crate::input::scenario::Scenario;
+use crate::problem::constraints::{self, Row};
+use crate::problem::dynamics::ix;
 use crate::problem::dynamics::Model;
-use crate::solution::{PathReport, Solution, Status, GROUND_TOLERANCE_M};
+use crate::solution::{LimitReport, PathReport, Solution, Status, GROUND_TOLERANCE_M};
 use crate::verify::ode::{Dop853, IntegrationError};
 use crate::verify::propagate::{self, Options};
 
 /// Largest step of the ground check's integration \[s\].
 pub const STEP_S: f64 = 0.05;
+
+/// Largest step of the integration when the scenario has operational
+/// constraints \[s\]: their states are interpolated between steps.
+pub const LIMIT_STEP_S: f64 = 0.01;
+
+/// How far an operational constraint's row may stand above 0, as a
+/// fraction of its scale ([`crate::problem::constraints::Row::scale`]):
+/// 0.1 mm in the cone, 0.003°/s at a 30°/s pitch-rate limit.
+pub const LIMIT_TOLERANCE: f64 = 1e-4;
 
 /// How far a control may stand beyond its bound, as a fraction of the
 /// bound's scale: rounding.
@@ -77,14 +95,20 @@ pub fn hermite_minimum(z0: f64, v0: f64, z1: f64, v1: f64, h: f64) -> Option<(f6
 
 /// Measure the answer's flight (module docs).
 pub fn measure(scenario: &Scenario, sol: &Solution) -> Result<PathReport, IntegrationError> {
+    let rows = constraints::rows(scenario);
     let options = Options {
         integrator: Dop853 {
-            h_max: STEP_S,
+            h_max: if rows.is_empty() {
+                STEP_S
+            } else {
+                LIMIT_STEP_S
+            },
             ..Dop853::default()
         },
         ..Options::default()
     };
     let p = propagate::propagate(scenario, sol, &options)?;
+    let limits = limit_reports(&rows, &p.t_s, &p.states);
     let z_f = scenario.terminal.z_m;
     let tf = *p.t_s.last().unwrap_or(&0.0);
     let end = p.final_state();
@@ -122,7 +146,53 @@ pub fn measure(scenario: &Scenario, sol: &Solution) -> Result<PathReport, Integr
         gimbal_max_rad: gimbal,
         gimbal_rate_max_radps: rate,
         final_mass_kg: end[6],
+        limits,
     })
+}
+
+/// Each limit's worst row value along a track (module docs).
+fn limit_reports(rows: &[Row], t_s: &[f64], states: &[[f64; 7]]) -> Vec<LimitReport> {
+    let mut out: Vec<LimitReport> = Vec::new();
+    let mut visit = |t: f64, y: &[f64; 7]| {
+        for r in rows {
+            let g = r.value(y);
+            match out.iter_mut().find(|l| l.limit == r.limit) {
+                Some(l) if g > l.worst || l.worst.is_nan() => (l.worst, l.t_s) = (g, t),
+                Some(_) => {}
+                None => out.push(LimitReport {
+                    limit: r.limit,
+                    worst: g,
+                    t_s: t,
+                    scale: r.scale(),
+                }),
+            }
+        }
+    };
+    for k in 0..t_s.len() {
+        visit(t_s[k], &states[k]);
+        if k == 0 {
+            continue;
+        }
+        let (y0, y1, h) = (&states[k - 1], &states[k], t_s[k] - t_s[k - 1]);
+        if h <= 0.0 {
+            continue;
+        }
+        for s in [0.25, 0.5, 0.75] {
+            let w = hermite_basis(s);
+            let cubic = |p: usize, v: usize| {
+                w[0] * y0[p] + w[1] * h * y0[v] + w[2] * y1[p] + w[3] * h * y1[v]
+            };
+            let mut y = [0.0; 7];
+            for i in 0..7 {
+                y[i] = (1.0 - s) * y0[i] + s * y1[i];
+            }
+            y[ix::X] = cubic(ix::X, ix::VX);
+            y[ix::Z] = cubic(ix::Z, ix::VZ);
+            y[ix::THETA] = cubic(ix::THETA, ix::W);
+            visit(t_s[k - 1] + s * h, &y);
+        }
+    }
+    out
 }
 
 /// ((T min, T max), max |δ|, max |χ|) of the answer's controls.
@@ -201,6 +271,17 @@ pub fn violations(report: &PathReport, model: &Model) -> Vec<String> {
             report.gimbal_rate_max_radps / chimax - 1.0
         ));
     }
+    for l in &report.limits {
+        if !at_most(l.worst, LIMIT_TOLERANCE * l.scale) {
+            out.push(format!(
+                "the flight breaks {} by {:.3e} {} at t = {:.2} s",
+                l.limit.describe(),
+                l.worst,
+                l.limit.unit(),
+                l.t_s
+            ));
+        }
+    }
     if !at_most(model.dry_mass_kg, report.final_mass_kg) {
         out.push(format!(
             "the final mass {:.1} kg is below the dry mass {:.1} kg",
@@ -221,8 +302,9 @@ pub fn check(scenario: &Scenario, sol: &mut Solution) {
     let model = Model::new(&scenario.vehicle, &scenario.environment);
     let broken = match measure(scenario, sol) {
         Ok(report) => {
+            let broken = violations(&report, &model);
             sol.path = Some(report);
-            violations(&report, &model)
+            broken
         }
         Err(e) => vec![format!(
             "the path could not be measured by re-integration ({e})"
