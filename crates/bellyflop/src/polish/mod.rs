@@ -26,6 +26,7 @@ pub mod adjoint;
 pub mod arcs;
 pub mod certificate;
 pub mod ground;
+pub mod limits;
 pub mod publish;
 pub mod qp;
 pub mod repair;
@@ -40,6 +41,7 @@ use crate::polish::shooting::{Layout, NC};
 use crate::polish::subproblem::{
     linear_rows, Qp, Scales, Terminal, MASS_SCALE_KG, RESIDUAL_SCALE, SLACK_WEIGHT,
 };
+use crate::problem::constraints::{self, Row};
 use crate::problem::dynamics::Model;
 use crate::solution::{Optimality, PolishIteration, PolishReport, PolishStructure, Solution};
 
@@ -150,6 +152,8 @@ struct Problem {
     delta0: f64,
     target: [f64; 6],
     dry_mass_kg: f64,
+    /// The operational constraints' rows (issue 37; empty without any).
+    limits: Vec<Row>,
 }
 
 /// A shot's end, its path violation ([`ground::violation`]) and the steps
@@ -185,14 +189,21 @@ impl Problem {
         sens: &shooting::Sensitivity,
         watch: &[usize],
     ) -> Vec<(Vec<(usize, f64)>, f64)> {
-        ground::rows(
+        let mut rows = ground::rows(
             sens,
             &self.layout,
             &self.scales.0,
             (self.z_f(), self.dry_mass_kg),
             BOX,
             watch,
-        )
+        );
+        rows.extend(limits::rows(sens, &self.limits, &self.scales.0, BOX));
+        rows
+    }
+
+    /// y(t_f), its sensitivities and those of the track's z, Vz and rows.
+    fn sensitivity(&self, p: &[f64]) -> shooting::Sensitivity {
+        shooting::sensitivity_with(&self.model, &self.layout, self.y0, p, &self.limits)
     }
 
     fn shot_of(&self, sens: &shooting::Sensitivity) -> Shot {
@@ -202,7 +213,8 @@ impl Problem {
     fn shot_from(&self, y: [f64; 7], track: &shooting::Track) -> Shot {
         Shot {
             y,
-            path: ground::violation(track, &self.layout, self.z_f(), y[6], self.dry_mass_kg),
+            path: ground::violation(track, &self.layout, self.z_f(), y[6], self.dry_mass_kg)
+                .max(limits::violation(track, &self.limits)),
             below: ground::below(track, self.z_f()),
         }
     }
@@ -252,6 +264,7 @@ pub fn polish(
         y0: [s0[0], s0[1], s0[2], s0[3], s0[4], s0[5], s0[6]],
         delta0: s0[7],
         dry_mass_kg: model.dry_mass_kg,
+        limits: constraints::rows(scenario),
         model,
         layout,
         scales,
@@ -436,7 +449,7 @@ fn iterate(
     let qp_iterations = &mut *qp_iterations;
     let mut weight = PROXIMAL_INITIAL;
     let mut floor = PROXIMAL_MIN;
-    let mut sens = shooting::sensitivity(&problem.model, &problem.layout, problem.y0, p);
+    let mut sens = problem.sensitivity(p);
     let mut watch: Vec<usize> = Vec::new();
     let mut iteration = 0;
     let mut last = Multipliers::default();
@@ -506,7 +519,7 @@ fn iterate(
         }
         if rho > 0.0 {
             *p = candidate;
-            sens = shooting::sensitivity(&problem.model, &problem.layout, problem.y0, p);
+            sens = problem.sensitivity(p);
         } else if watch_new(&mut watch, tried.as_ref().map_or(&[][..], |s| &s.below))
             && violates(&problem.path_rows(&sens, &watch), &step.dp)
         {

@@ -21,6 +21,7 @@ use num_dual::DualNum;
 
 use crate::flown::{legendre, DEGREE};
 use crate::polish::arcs::ArcKind;
+use crate::problem::constraints::Row;
 use crate::problem::dynamics::{rhs_physical, rhs_physical_jacobian, Model};
 
 /// Largest RK4 step in time \[s\]. The landing check integrates the same
@@ -223,6 +224,10 @@ pub struct Sensitivity {
     pub dz: Vec<f64>,
     /// ∂Vz/∂p at track point k, likewise.
     pub dvz: Vec<f64>,
+    /// ∂g_r/∂p of the operational rows `r` given to [`sensitivity_with`] at
+    /// track point k: `dlimits[(k·rows + r)·len..][..len]` (zero at k = 0);
+    /// empty without rows.
+    pub dlimits: Vec<f64>,
 }
 
 impl Sensitivity {
@@ -241,6 +246,8 @@ pub struct Track {
     pub vz_mps: Vec<f64>,
     pub h_s: Vec<f64>,
     pub segment: Vec<usize>,
+    /// The whole state (x, z, Vx, Vz, θ, w, m) at each point.
+    pub states: Vec<[f64; 7]>,
 }
 
 impl Track {
@@ -250,16 +257,18 @@ impl Track {
             vz_mps: Vec::with_capacity(capacity),
             h_s: Vec::with_capacity(capacity),
             segment: Vec::with_capacity(capacity),
+            states: Vec::with_capacity(capacity),
         };
-        t.push(y0[1], y0[3], 0.0, 0);
+        t.push(y0, 0.0, 0);
         t
     }
 
-    fn push(&mut self, z: f64, vz: f64, h: f64, j: usize) {
-        self.z_m.push(z);
-        self.vz_mps.push(vz);
+    fn push(&mut self, y: &[f64; 7], h: f64, j: usize) {
+        self.z_m.push(y[1]);
+        self.vz_mps.push(y[3]);
         self.h_s.push(h);
         self.segment.push(j);
+        self.states.push(*y);
     }
 
     /// Points of the track: the start and one per RK4 step.
@@ -282,7 +291,7 @@ pub fn shoot_track(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> (
     let mut track = Track::start(&y0, total_steps(layout) + 1);
     let ends = shoot_with(model, layout, y0, p, |j, y| {
         let h = p[layout.duration(j)] / layout.segments[j].steps as f64;
-        track.push(y[1], y[3], h, j);
+        track.push(y, h, j);
     });
     (*ends.last().unwrap_or(&y0), track)
 }
@@ -291,9 +300,23 @@ pub fn shoot_track(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> (
 /// differentiation, segment by segment: the end state chained backwards,
 /// the track forwards through A_j = ∂y(start of segment j)/∂p (module docs).
 pub fn sensitivity(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> Sensitivity {
+    sensitivity_with(model, layout, y0, p, &[])
+}
+
+/// [`sensitivity`], with the gradients of the operational rows `rows` at
+/// every track point besides ([`Sensitivity::dlimits`]): each row's local
+/// derivative Σ_c ∂g/∂y_c·∂y_c/∂v, chained like z's.
+pub fn sensitivity_with(
+    model: &Model,
+    layout: &Layout,
+    y0: [f64; 7],
+    p: &[f64],
+    rows: &[Row],
+) -> Sensitivity {
     let nseg = layout.segments.len();
     let len = layout.len;
     let points = total_steps(layout) + 1;
+    let mut dlimits = vec![0.0; points * rows.len() * len];
     let mut phi: Vec<[[f64; 7]; 7]> = Vec::with_capacity(nseg);
     let mut g: Vec<[[f64; MAX_SEGMENT_PARAMS]; 7]> = Vec::with_capacity(nseg);
     let mut track = Track::start(&y0, points);
@@ -323,9 +346,20 @@ pub fn sensitivity(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> S
             seg.steps,
             |ys, dys| {
                 k += 1;
-                track.push(ys[1], ys[3], h, j);
+                track.push(ys, h, j);
                 chain(&dys[1], &a, o, params, &mut dz[k * len..(k + 1) * len]);
                 chain(&dys[3], &a, o, params, &mut dvz[k * len..(k + 1) * len]);
+                for (r, row) in rows.iter().enumerate() {
+                    let grad = row.eval(ys).grad;
+                    let mut local = [0.0; ND];
+                    for (c, g) in grad.iter().enumerate().filter(|(_, g)| **g != 0.0) {
+                        for (l, d) in local.iter_mut().zip(&dys[c]) {
+                            *l += g * d;
+                        }
+                    }
+                    let at = (k * rows.len() + r) * len;
+                    chain(&local, &a, o, params, &mut dlimits[at..at + len]);
+                }
             },
         );
         let mut ph = [[0.0; 7]; 7];
@@ -361,6 +395,7 @@ pub fn sensitivity(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> S
         track,
         dz,
         dvz,
+        dlimits,
     }
 }
 

@@ -41,8 +41,12 @@ pub const LIMIT_STEP_S: f64 = 0.01;
 
 /// How far an operational constraint's row may stand above 0, as a
 /// fraction of its scale ([`crate::problem::constraints::Row::scale`]):
-/// 0.1 mm in the cone, 0.003°/s at a 30°/s pitch-rate limit.
-pub const LIMIT_TOLERANCE: f64 = 1e-4;
+/// 1 mm in the cone (the ground's [`GROUND_TOLERANCE_M`]), 0.03°/s at a
+/// 30°/s pitch-rate limit, 2 mm/s at a 2 m/s lateral limit. The polish's
+/// RK4 at 0.05 s and this check's DOP853 differ by ~1e-4 of the scale
+/// (measured: 2.9e-4 m/s in Vx on the paper's case), so a tighter
+/// tolerance would judge the integrators, not the answer.
+pub const LIMIT_TOLERANCE: f64 = 1e-3;
 
 /// How far a control may stand beyond its bound, as a fraction of the
 /// bound's scale: rounding.

@@ -115,6 +115,7 @@ impl Transcription {
         let mut ineq = Rows::new();
         self.trust_region_rows(&mut ineq, &zref, radius);
         self.thrust_rows(&mut ineq, reference);
+        self.limit_rows(&mut ineq, reference);
         self.nonnegative_rows(&mut ineq);
 
         let mut soc = Rows::new();
@@ -307,6 +308,36 @@ impl Transcription {
                     ],
                     sign * k * (1.0 + w0 - o_om) / s_sigma,
                 );
+            }
+        }
+    }
+
+    /// The operational constraints (issue 37) linearized at the reference,
+    /// g(ȳ) + ∇g(ȳ)·(y − ȳ) ≤ buffer, at every collocation point but the
+    /// first, over the row's scale. The triggered rows are concave in z, so
+    /// their linearization is the tighter. Every state a row may involve
+    /// gets its entry, zero or not, so the sparsity never changes.
+    fn limit_rows(&self, ineq: &mut Rows, reference: &Trajectory) {
+        const STATES: [usize; 5] = [ix::X, ix::Z, ix::VX, ix::THETA, ix::W];
+        let l = self.layout;
+        let sc = &self.scaling;
+        for i in 0..l.n {
+            for (r, row) in self.limits.iter().enumerate() {
+                let (scale, buffer) = (row.scale(), l.limit_buffer(i, r));
+                if i == 0 {
+                    // The fixed initial state: only the buffer, kept at 0.
+                    ineq.push(&[(buffer, -1.0)], 0.0);
+                    continue;
+                }
+                let y = &reference.x[i];
+                let e = row.eval(y);
+                let mut rhs = -e.g;
+                for c in STATES {
+                    ineq.entry(l.x(i, c), e.grad[c] * sc.x_scale[c] / scale);
+                    rhs += e.grad[c] * (y[c] - sc.x_offset[c]);
+                }
+                ineq.entry(buffer, -1.0);
+                ineq.finish_row(rhs / scale);
             }
         }
     }

@@ -23,6 +23,7 @@ use crate::collocation::scaling::Scaling;
 use crate::collocation::trajectory::Trajectory;
 use crate::input::scenario::Scenario;
 use crate::input::settings::{Formulation, SolverSettings};
+use crate::problem::constraints::{self, Row};
 use crate::problem::dynamics::{self, ix, Model, NU_MAX, NX};
 use crate::solution::{node_thrust_n, Checks};
 
@@ -39,6 +40,9 @@ pub struct Layout {
     pub soft_margin: bool,
     /// Whether x(t_f) and Vx(t_f) are soft (their misses are variables).
     pub soft_terminal: bool,
+    /// Rows of the operational constraints per node (issue 37,
+    /// [`crate::problem::constraints`]), each with a penalized buffer.
+    pub limit_rows: usize,
 }
 
 impl Layout {
@@ -70,6 +74,16 @@ impl Layout {
         debug_assert!(r < self.path_rows);
         self.n_primal() + 2 * NX * self.n + 2 * self.n + 2 * (i * self.path_rows + r) + side
     }
+    /// Buffer on operational row `r` at collocation point i.
+    pub fn limit_buffer(&self, i: usize, r: usize) -> usize {
+        debug_assert!(r < self.limit_rows);
+        self.n_primal()
+            + 2 * NX * self.n
+            + 2 * self.n
+            + 2 * self.path_rows * self.n
+            + i * self.limit_rows
+            + r
+    }
     /// Use of the soft thrust margin below (side 0) or above (side 1) at node i.
     pub fn margin(&self, i: usize, side: usize) -> usize {
         debug_assert!(self.soft_margin);
@@ -77,7 +91,11 @@ impl Layout {
     }
     /// End of the exact-penalty variables (virtual control, buffers, path).
     pub(crate) fn n_penalty_end(&self) -> usize {
-        self.n_primal() + 2 * NX * self.n + 2 * self.n + 2 * self.path_rows * self.n
+        self.n_primal()
+            + 2 * NX * self.n
+            + 2 * self.n
+            + 2 * self.path_rows * self.n
+            + self.limit_rows * self.n
     }
     pub(crate) fn n_margin_end(&self) -> usize {
         self.n_penalty_end() + if self.soft_margin { 2 * self.n } else { 0 }
@@ -113,6 +131,9 @@ pub struct Transcription {
     pub terminal_weight: f64,
     /// Whether z ≥ z_f is imposed at every node (see `set_bounds`).
     pub ground_bound: bool,
+    /// The operational constraints' rows, linearized at every collocation
+    /// point but the first (whose state is fixed and certified inside them).
+    pub limits: Vec<Row>,
     /// Structural nonzeros of ∂f/∂x and ∂f/∂u: `assemble` emits exactly these
     /// entries, zero or not, so every subproblem has the same sparsity and
     /// Clarabel can be updated in place ([`crate::method::scvx::conic`]).
@@ -156,6 +177,7 @@ impl Transcription {
             },
             soft_margin: sv.thrust_margin_frac > 0.0,
             soft_terminal: sv.terminal_lateral_weight > 0.0,
+            limit_rows: constraints::rows(s).len(),
         };
         let scaling = Scaling::new(s, &model, form);
         let i = &s.initial;
@@ -177,6 +199,7 @@ impl Transcription {
             margin_weight: sv.thrust_margin_weight,
             terminal_weight: sv.terminal_lateral_weight,
             ground_bound: true,
+            limits: constraints::rows(s),
             pattern_a: [[false; NX]; NX],
             pattern_b: [[false; NU_MAX]; NX],
             lo: vec![],
@@ -391,8 +414,9 @@ impl Transcription {
             .collect()
     }
 
-    /// Path-constraint violations per node (scaled): σ bounds (Eq. 20) and,
-    /// for the paper's formulation, the direction equality (Eq. 18).
+    /// Path-constraint violations per node (scaled): σ bounds (Eq. 20), the
+    /// operational constraints (over their rows' scales) and, for the
+    /// paper's formulation, the direction equality (Eq. 18).
     fn path_violation(&self, t: &Trajectory) -> f64 {
         let si = self.sigma_index();
         let s_sigma = self.scaling.u_scale[si];
@@ -402,6 +426,9 @@ impl Transcription {
             let sigma = t.u[i][si];
             total += (self.model.min_thrust_n * inv_m - sigma).max(0.0) / s_sigma;
             total += (sigma - self.model.max_thrust_n * inv_m).max(0.0) / s_sigma;
+            for r in &self.limits {
+                total += r.value(&t.x[i]).max(0.0) / r.scale();
+            }
             match self.form {
                 Formulation::Exact => {}
                 Formulation::Paper => {

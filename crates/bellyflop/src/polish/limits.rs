@@ -1,0 +1,236 @@
+//! The operational constraints (issue 37) along the polish's shot: each
+//! smooth row g(y) ≤ 0 of [`crate::problem::constraints`] at the points of
+//! the track ([`crate::polish::shooting::Track`], every RK4 step's end).
+//!
+//! Between two step ends g is smooth, so where g peaks (a step end k at
+//! least as high as both neighbours, inside one segment) its peak is taken
+//! from the parabola through g_{k−1}, g_k, g_{k+1} at equal spacing:
+//!
+//!   g* = g_k + a²/(8c),   a = g_{k+1} − g_{k−1},   c = 2g_k − g_{k−1} − g_{k+1},
+//!
+//! (error O(h³·g‴) against the true peak), with its gradient
+//! ∂g* = ∂g_k + (a/4c)·∂a − (a²/8c²)·∂c. Every step end within
+//! [`ACTIVE`] of its bound is a point too, so that an arc along the bound
+//! is held at every step. The last point (t_f) is the terminal
+//! conditions' (the cone's apex is the pad).
+//!
+//! Values join the ground's violation v(p) ([`crate::polish::ground`]) in
+//! metres: g over the row's scale, times [`UNIT_M`], so that the polish's
+//! path tolerance ([`crate::polish::PATH_TOLERANCE`], a tenth of the
+//! ground check's) is a tenth of the flight check's
+//! ([`crate::verify::path::LIMIT_TOLERANCE`]) on every row too.
+
+use crate::polish::shooting::{Sensitivity, Track};
+use crate::problem::constraints::Row;
+
+/// The metres of v(p) per unit of g/scale: the ground check's tolerance
+/// over the limits'.
+pub const UNIT_M: f64 = crate::solution::GROUND_TOLERANCE_M / crate::verify::path::LIMIT_TOLERANCE;
+
+/// How far below its bound (relative to its scale) a step end is held as
+/// a point of the QP, besides the peaks.
+pub const ACTIVE: f64 = 1e-3;
+
+/// The QP's rows hold each point this far inside its bound (relative): a
+/// linearization met to the QP's tolerances would otherwise leave an
+/// active point a little outside (second-order terms), as
+/// [`crate::polish::ground::GROUND_MARGIN_M`] does for the ground, and the
+/// RK4 steps' own error (~1e-4 of the scale against DOP853) would show in
+/// the flight check. A tenth of its tolerance.
+pub const MARGIN: f64 = 1e-4;
+
+/// A point of one row: its value (the parabola's peak or the step end's)
+/// and the weights of g at k−1, k, k+1 in its first-order change.
+struct Point {
+    k: usize,
+    value: f64,
+    weights: [f64; 3],
+}
+
+/// The points of row `r` on a track (module docs).
+fn points(track: &Track, row: &Row, mut visit: impl FnMut(Point)) {
+    let n = track.len();
+    if n < 3 {
+        return;
+    }
+    let g: Vec<f64> = track.states.iter().map(|y| row.value(y)).collect();
+    let near = -ACTIVE * row.scale();
+    for k in 1..n - 1 {
+        let peak = g[k] >= g[k - 1] && g[k] >= g[k + 1];
+        let even = track.segment[k] == track.segment[k + 1]
+            && (track.h_s[k] - track.h_s[k + 1]).abs() <= 1e-12 * track.h_s[k];
+        let c = 2.0 * g[k] - g[k - 1] - g[k + 1];
+        if peak && even && c > 0.0 {
+            let a = g[k + 1] - g[k - 1];
+            // ∂g* = ∂g_k + (a/4c)(∂g_{k+1} − ∂g_{k−1}) − (a²/8c²)(2∂g_k − ∂g_{k−1} − ∂g_{k+1}).
+            let (u, v) = (a / (4.0 * c), a * a / (8.0 * c * c));
+            visit(Point {
+                k,
+                value: g[k] + a * a / (8.0 * c),
+                weights: [v - u, 1.0 - 2.0 * v, u + v],
+            });
+        } else if peak || g[k] > near {
+            visit(Point {
+                k,
+                value: g[k],
+                weights: [0.0, 1.0, 0.0],
+            });
+        }
+    }
+}
+
+/// The largest value of the rows along a track, in v's metres (0 when
+/// every row holds).
+pub fn violation(track: &Track, rows: &[Row]) -> f64 {
+    let mut v = 0.0f64;
+    for row in rows {
+        points(track, row, |p| v = v.max(p.value / row.scale() * UNIT_M));
+    }
+    v
+}
+
+/// The linearized rows a·Δp̂ − ν ≤ b in the scaled step, in v's metres:
+/// a = (∂g*/∂p)·S·UNIT_M/scale, b = −(g* + MARGIN·scale)·UNIT_M/scale, for
+/// the points within reach of their bound in one step of the trust region
+/// (Σ|a_i|·Δ ≥ b), as [`crate::polish::ground::rows`].
+pub fn rows(
+    sens: &Sensitivity,
+    rows: &[Row],
+    scales: &[f64],
+    trust_radius: f64,
+) -> Vec<(Vec<(usize, f64)>, f64)> {
+    let len = scales.len();
+    let mut out = Vec::new();
+    for (r, row) in rows.iter().enumerate() {
+        let unit = UNIT_M / row.scale();
+        points(&sens.track, row, |p| {
+            let rhs = -(p.value + MARGIN * row.scale()) * unit;
+            let mut gradient = vec![0.0; len];
+            for (i, w) in p.weights.iter().enumerate().filter(|(_, w)| **w != 0.0) {
+                let at = ((p.k + i - 1) * rows.len() + r) * len;
+                for (g, d) in gradient.iter_mut().zip(&sens.dlimits[at..at + len]) {
+                    *g += w * d;
+                }
+            }
+            let terms: Vec<(usize, f64)> = gradient
+                .iter()
+                .zip(scales)
+                .enumerate()
+                .map(|(c, (g, s))| (c, g * s * unit))
+                .filter(|(_, v)| *v != 0.0)
+                .collect();
+            let reach: f64 = terms.iter().map(|(_, v)| v.abs()).sum::<f64>() * trust_radius;
+            if reach >= rhs {
+                out.push((terms, rhs));
+            }
+        });
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::scenario::Scenario;
+    use crate::polish::arcs::ArcKind;
+    use crate::polish::shooting::{self, Layout, Segment};
+    use crate::problem::constraints::{self, Constraints};
+    use crate::problem::dynamics::Model;
+
+    /// The peak of each row along a shot, and its gradient against every
+    /// parameter, by central finite differences of the shot.
+    #[test]
+    fn the_peaks_and_their_gradients_match_finite_differences() {
+        let mut s = Scenario::paper();
+        s.terminal.x_m = 5.0;
+        s.constraints = Constraints {
+            cone_half_angle_deg: Some(20.0),
+            max_pitch_rate_degps: Some(5.0),
+            max_tilt_deg: Some(3.0),
+            tilt_below_m: Some(30.0),
+            final_descent_m: Some(30.0),
+            final_descent_lateral_mps: Some(0.5),
+        };
+        let all = constraints::rows(&s);
+        let model = Model::new(&s.vehicle, &s.environment);
+        let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
+        let seg = |thrust, steps| Segment {
+            thrust,
+            steps,
+            d_min_s: 0.0,
+            d_max_s: 10.0,
+        };
+        let layout = Layout::new(vec![
+            seg(ArcKind::Bound(hi), 37),
+            seg(ArcKind::Free, 23),
+            seg(ArcKind::Bound(lo), 11),
+        ]);
+        let mut p = vec![0.0; layout.len];
+        for (j, d) in [1.2, 1.4, 0.5].into_iter().enumerate() {
+            p[layout.duration(j)] = d;
+            p[layout.delta(j)] = 0.01;
+            p[layout.delta(j) + 1] = -0.005 * j as f64;
+            p[layout.delta(j) + 3] = 0.002;
+        }
+        let t = layout.thrust(1).unwrap();
+        p[t] = 0.7 * hi;
+        p[t + 1] = -0.1 * (hi - lo);
+        // Tilted, drifting and pitching, 40 m up.
+        let y0 = [0.0, 40.0, 3.0, -20.0, 0.1, 0.08, 100_000.0];
+        let sens = shooting::sensitivity_with(&model, &layout, y0, &p, &all);
+        let mut tested = 0;
+        for (r, row) in all.iter().enumerate() {
+            let highest = |p: &[f64]| {
+                let (_, track) = shooting::shoot_track(&model, &layout, y0, p);
+                let mut best = (f64::NEG_INFINITY, 0);
+                points(&track, row, |q| {
+                    if q.value > best.0 {
+                        best = (q.value, q.k);
+                    }
+                });
+                best
+            };
+            let (value, k) = highest(&p);
+            if k == 0 {
+                continue; // a row monotone along the shot and far from its bound: no point
+            }
+            tested += 1;
+            let mut gradient = vec![0.0; layout.len];
+            let mut found = false;
+            points(&sens.track, row, |q| {
+                if q.k == k {
+                    found = true;
+                    assert!((q.value - value).abs() < 1e-12);
+                    for (i, w) in q.weights.iter().enumerate() {
+                        let at = ((q.k + i - 1) * all.len() + r) * layout.len;
+                        for (g, d) in gradient.iter_mut().zip(&sens.dlimits[at..]) {
+                            *g += w * d;
+                        }
+                    }
+                }
+            });
+            assert!(found, "row {r}");
+            for c in 0..layout.len {
+                let size = if (t..t + 4).contains(&c) { 1e5 } else { 0.1 };
+                let h = 1e-6 * p[c].abs().max(size);
+                let (mut a, mut b) = (p.clone(), p.clone());
+                a[c] += h;
+                b[c] -= h;
+                let (ha, ka) = highest(&a);
+                let (hb, kb) = highest(&b);
+                if ka != k || kb != k {
+                    continue; // the peak moved to another step: not smooth there
+                }
+                let fd = (ha - hb) / (2.0 * h);
+                let scale = fd.abs().max(gradient[c].abs()).max(1e-6);
+                assert!(
+                    (fd - gradient[c]).abs() <= 1e-4 * scale,
+                    "row {r} ({:?}) ∂g*/∂p{c}: {} vs fd {fd}",
+                    row.limit,
+                    gradient[c]
+                );
+            }
+        }
+        assert!(tested >= 4, "{tested} rows had a point");
+    }
+}
