@@ -78,6 +78,9 @@ class Scenario:
     # intervals = len(points).
     mesh_breaks_tau: tuple[float, ...] | None = None
     mesh_points: tuple[int, ...] | None = None
+    # The operational path constraints of the optional [constraints] table
+    # (None: none, the paper's problem).
+    constraints: Constraints | None = None
 
     def mesh(self) -> "LgrMesh":
         """The scenario's default mesh: its explicit layout, else uniform."""
@@ -90,7 +93,9 @@ def load_scenario(path: str) -> Scenario:
     """Read a scenario TOML file. An optional `[discretization.mesh]` table
     (`breaks_tau`, M + 1 values from -1 to 1; `points`, M sizes >= 2) defines
     the mesh and overrides `nodes` and `intervals` (N = sum(points),
-    M = len(points)); an invalid table raises ValueError."""
+    M = len(points)); an optional `[constraints]` table switches on the
+    operational path constraints (`parse_constraints`). An invalid table
+    raises ValueError."""
     with open(path, "rb") as fh:
         d = tomllib.load(fh)
     v, e, i, f = d["vehicle"], d["environment"], d["initial"], d["terminal"]
@@ -105,6 +110,10 @@ def load_scenario(path: str) -> Scenario:
             breaks, points = validate_layout(tbl["breaks_tau"], tbl["points"])
         except ValueError as exc:
             raise ValueError(f"{path}: [discretization.mesh]: {exc}") from None
+    try:
+        constraints = parse_constraints(d.get("constraints"))
+    except ValueError as exc:
+        raise ValueError(f"{path}: [constraints]: {exc}") from None
     return Scenario(
         name=d.get("name", path),
         m_dry=v["dry_mass_kg"], l_s=v["length_m"], r_s=v["radius_m"],
@@ -122,7 +131,93 @@ def load_scenario(path: str) -> Scenario:
         intervals=len(points) if points else int(disc.get("intervals", 1)),
         mesh_breaks_tau=tuple(breaks) if points else None,
         mesh_points=tuple(points) if points else None,
+        constraints=constraints,
     )
+
+
+# --------------------------------------------------------------------------
+# Operational path constraints (issue 37): the optional [constraints] table
+# --------------------------------------------------------------------------
+SIGMA_M = 1.0                  # softplus width of the altitude triggers [m]
+S_TILT = math.pi / 180.0       # tilt limit's opening above tilt_below_m [rad/m] (1 deg/m)
+S_LAT = 1.0                    # lateral limit's opening above final_descent_m [(m/s)/m]
+
+# Each field of [constraints]: (lowest, highest, lowest excluded). All optional.
+CONSTRAINT_RANGES = {
+    "cone_half_angle_deg": (1.0, 89.0, False),
+    "max_pitch_rate_degps": (0.0, 360.0, True),
+    "max_tilt_deg": (0.0, 90.0, False),
+    "tilt_below_m": (0.0, 1e5, False),
+    "final_descent_m": (0.0, 1e5, False),
+    "final_descent_lateral_mps": (0.0, 100.0, False),
+}
+# Fields that switch a limit on only together.
+CONSTRAINT_PAIRS = (("max_tilt_deg", "tilt_below_m"),
+                    ("final_descent_m", "final_descent_lateral_mps"))
+# The limits in row order: name -> (unit of its rows' values, description).
+LIMITS = {
+    "cone": ("m", "the approach cone"),
+    "pitch_rate": ("rad/s", "the pitch-rate limit"),
+    "tilt": ("rad", "the tilt limit"),
+    "final_descent": ("m/s", "the final descent's lateral-speed limit"),
+}
+
+
+@dataclass(frozen=True)
+class Constraints:
+    """The `[constraints]` table, in its own units (deg, deg/s, m, m/s);
+    None is off. See `constraint_rows` for the rows they give."""
+
+    cone_half_angle_deg: float | None = None
+    max_pitch_rate_degps: float | None = None
+    max_tilt_deg: float | None = None
+    tilt_below_m: float | None = None
+    final_descent_m: float | None = None
+    final_descent_lateral_mps: float | None = None
+
+    def as_dict(self) -> dict:
+        """The fields given, as in the table (for the JSON output)."""
+        return {k: getattr(self, k) for k in CONSTRAINT_RANGES if getattr(self, k) is not None}
+
+    def limits(self) -> list[str]:
+        """The names (keys of LIMITS) of the limits switched on, in row order."""
+        on = {"cone": self.cone_half_angle_deg is not None,
+              "pitch_rate": self.max_pitch_rate_degps is not None,
+              "tilt": self.max_tilt_deg is not None,
+              "final_descent": self.final_descent_m is not None}
+        return [k for k in LIMITS if on[k]]
+
+
+def parse_constraints(tbl) -> Constraints | None:
+    """Check a `[constraints]` table (the dict from the TOML, or None) and
+    return it, or None when it is absent or empty (no limit: the paper's
+    problem). Every field is optional and must be a number within
+    CONSTRAINT_RANGES; the fields of a CONSTRAINT_PAIRS pair come together;
+    an unknown field is refused (a misspelt limit must not silently be off).
+    Raises ValueError naming the field."""
+    if tbl is None:
+        return None
+    if not isinstance(tbl, dict):
+        raise ValueError(f"must be a table (got {tbl!r})")
+    unknown = [k for k in tbl if k not in CONSTRAINT_RANGES]
+    if unknown:
+        raise ValueError(f"unknown field(s) {', '.join(unknown)}; the fields are "
+                         f"{', '.join(CONSTRAINT_RANGES)}")
+    vals = {}
+    for key, v in tbl.items():
+        lo, hi, lo_open = CONSTRAINT_RANGES[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise ValueError(f"{key} must be a number (got {v!r})")
+        v = float(v)
+        if not (math.isfinite(v) and (v > lo if lo_open else v >= lo) and v <= hi):
+            raise ValueError(f"{key} = {v:g} is out of range: allowed "
+                             f"{'(' if lo_open else '['}{lo:g}, {hi:g}]")
+        vals[key] = v
+    for a, b in CONSTRAINT_PAIRS:
+        if (a in vals) != (b in vals):
+            have, missing = (a, b) if a in vals else (b, a)
+            raise ValueError(f"{have} needs {missing}: the two are given together")
+    return Constraints(**vals) if vals else None
 
 
 # --------------------------------------------------------------------------
