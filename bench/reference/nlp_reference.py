@@ -38,6 +38,7 @@ import math
 import sys
 import time
 import tomllib
+import dataclasses
 from dataclasses import dataclass
 
 import casadi as ca
@@ -218,6 +219,108 @@ def parse_constraints(tbl) -> Constraints | None:
             have, missing = (a, b) if a in vals else (b, a)
             raise ValueError(f"{have} needs {missing}: the two are given together")
     return Constraints(**vals) if vals else None
+
+
+def softplus(u, lib=np):
+    """sp(u) = SIGMA ln(1 + exp(u / SIGMA)), written as
+    max(u, 0) + SIGMA log1p(exp(-|u| / SIGMA)) so that it never overflows.
+    `lib` is numpy or casadi (both have fmax, fabs, log1p, exp). The direct
+    form overflows to inf (and NaN derivatives) for u > 709 SIGMA, i.e. at
+    altitudes 709 m above a trigger, which initial states and iterates can
+    reach. In CasADi this form's value and gradient are exact everywhere (the
+    derivative of fmax at u = 0 is 1/2, which is sp'(0)); its AD Hessian is
+    exact except at u == 0.0 exactly, where sign(0) = 0 gives 0 instead of
+    1/(4 SIGMA): a single floating-point value that the iterates do not hit."""
+    return lib.fmax(u, 0.0) + SIGMA_M * lib.log1p(lib.exp(-lib.fabs(u) / SIGMA_M))
+
+
+def constraint_rows(c: Constraints, xf, s, lib=np) -> list[tuple[str, object]]:
+    """The smooth rows g <= 0 of the limits switched on, at the state
+    s = [x, z, Vx, Vz, theta, w, m] in physical units (numbers, numpy arrays
+    over nodes, or CasADi expressions; `lib` as in `softplus`). Returns
+    [(limit, g)], two rows (+ then -) per limit in LIMITS order, each in the
+    unit of LIMITS. With dx = x - x_f, dz = z - z_f (the pad):
+      cone:          +-dx - tan(gamma) dz                      [m]
+      pitch_rate:    +-w - w_max                               [rad/s]
+      tilt:          +-theta - theta_max - S_TILT sp(dz - h)   [rad]
+      final_descent: +-Vx - v_fd - S_LAT sp(dz - h_fd)         [m/s]
+    """
+    dx, dz = s[0] - xf[0], s[1] - xf[1]
+    rows: list[tuple[str, object]] = []
+
+    def both(limit, y, bound):
+        rows.append((limit, y - bound))
+        rows.append((limit, -y - bound))
+
+    if c.cone_half_angle_deg is not None:
+        both("cone", dx, math.tan(math.radians(c.cone_half_angle_deg)) * dz)
+    if c.max_pitch_rate_degps is not None:
+        both("pitch_rate", s[5], math.radians(c.max_pitch_rate_degps))
+    if c.max_tilt_deg is not None:
+        both("tilt", s[4], math.radians(c.max_tilt_deg)
+             + S_TILT * softplus(dz - c.tilt_below_m, lib))
+    if c.final_descent_m is not None:
+        both("final_descent", s[2], c.final_descent_lateral_mps
+             + S_LAT * softplus(dz - c.final_descent_m, lib))
+    return rows
+
+
+def constraint_report(c: Constraints, xf, X: np.ndarray) -> dict:
+    """Each limit's rows over the N + 1 state nodes of X ((N+1) x >=7,
+    physical): {limit: {"unit", "per_node" (max of its two rows at each
+    node), "max" (over all nodes), "node" (where), "max_free" (over the free
+    nodes 1..N-1, where the NLP imposes it; the two ends are fixed) and
+    "node_free"}}. A row value <= 0 holds; the free maximum near 0 means the
+    limit is active. (At t_f the cone's value is 0 by construction: the apex.)"""
+    per: dict[str, np.ndarray] = {}
+    for limit, g in constraint_rows(c, xf, [X[:, k] for k in range(7)]):
+        per[limit] = np.maximum(per[limit], g) if limit in per else np.asarray(g, float)
+    out = {}
+    for limit, v in per.items():
+        k = int(np.argmax(v))
+        kf = 1 + int(np.argmax(v[1:-1])) if len(v) > 2 else None
+        out[limit] = {"unit": LIMITS[limit][0], "max": float(v[k]), "node": k,
+                      "max_free": None if kf is None else float(v[kf]), "node_free": kf,
+                      "per_node": v.tolist()}
+    return out
+
+
+def _row_detail(limit: str, c: Constraints, xf, state) -> str:
+    """A limit's row written out with the numbers of one state (for messages)."""
+    x, z, vx, th, w = state[0], state[1], state[2], state[4], state[5]
+    dx, dz = x - xf[0], z - xf[1]
+    if limit == "cone":
+        return (f"|x - x_f| - tan(gamma) (z - z_f) with gamma = {c.cone_half_angle_deg:g} deg, "
+                f"x - x_f = {dx:g} m, z - z_f = {dz:g} m")
+    if limit == "pitch_rate":
+        return (f"|w| - w_max with w = {math.degrees(w):g} deg/s, "
+                f"w_max = {c.max_pitch_rate_degps:g} deg/s")
+    if limit == "tilt":
+        return (f"|theta| - theta_max - S_TILT sp(z - z_f - h) with theta = "
+                f"{math.degrees(th):g} deg, theta_max = {c.max_tilt_deg:g} deg, "
+                f"z - z_f = {dz:g} m, h = {c.tilt_below_m:g} m")
+    return (f"|Vx| - v_fd - S_LAT sp(z - z_f - h_fd) with Vx = {vx:g} m/s, "
+            f"v_fd = {c.final_descent_lateral_mps:g} m/s, z - z_f = {dz:g} m, "
+            f"h_fd = {c.final_descent_m:g} m")
+
+
+def check_fixed_ends(sc: Scenario, c: Constraints, tol: float = 1e-9) -> None:
+    """The states at t = 0 ([initial]) and at t_f ([terminal]) are fixed, so
+    the NLP cannot move them onto a limit: raise ValueError naming each limit
+    that either breaks (row value > tol in its unit), with the value, instead
+    of letting IPOPT fail without saying why."""
+    bad = []
+    for where, state in (("initial", sc.x0), ("terminal", np.append(sc.xf, sc.x0[6]))):
+        worst: dict[str, float] = {}
+        for limit, g in constraint_rows(c, sc.xf, list(state)):
+            worst[limit] = max(worst.get(limit, -math.inf), float(g))
+        for limit, v in worst.items():
+            if v > tol:
+                bad.append(f"the {where} state breaks {LIMITS[limit][1]}: row = {v:+.6g} "
+                           f"{LIMITS[limit][0]} > 0 ({_row_detail(limit, c, sc.xf, state)})")
+    if bad:
+        raise ValueError("; ".join(bad) + ". That state is fixed, so the problem is "
+                         "infeasible: no solve attempted")
 
 
 # --------------------------------------------------------------------------
@@ -449,6 +552,10 @@ class LgrMesh:
 # --------------------------------------------------------------------------
 # NLP construction
 # --------------------------------------------------------------------------
+# IPOPT's bound_relax_factor (its default value, set explicitly): the path rows
+# are imposed as g <= -BOUND_RELAX so that IPOPT's relaxed bound is g <= 0.
+BOUND_RELAX = 1e-8
+
 class LgrNlp:
     """Builds the LGR-collocated NLP for P1 or P2 once; can be solved repeatedly.
 
@@ -542,6 +649,26 @@ class LgrNlp:
             for k in range(nx):
                 g.append(DX[i, k] - 0.5 * tf * f[k] / self.x_scale[k])
         g = ca.vertcat(*g)
+        n_defects = self.n_defects = g.shape[0]
+
+        # Operational path constraints (issue 37, sc.constraints): the rows
+        # g_c <= 0 of `constraint_rows` at the free state nodes 1..N-1 (the
+        # two ends are fixed; check_fixed_ends checks them), node by node,
+        # each divided by its state's scale (cone by x's, pitch rate by w's,
+        # tilt by theta's, final descent by Vx's) so that it is O(1) like the
+        # defects. With no table nothing is added: the paper's NLP, row for row.
+        c = sc.constraints
+        if c is not None:
+            self.row_scale = row_scale = {
+                "cone": self.x_scale[0], "pitch_rate": self.x_scale[5],
+                "tilt": self.x_scale[4], "final_descent": self.x_scale[2]}
+            rows = []
+            for i in range(1, N):
+                s = [X[i, k] * self.x_scale[k] for k in range(7)]
+                rows.extend(gi / row_scale[limit]
+                            for limit, gi in constraint_rows(c, sc.xf, s, lib=ca))
+            g = ca.vertcat(g, *rows)
+        self.n_path_rows = g.shape[0] - n_defects
 
         # Objective, Eq. (6): maximize m(tf)  ->  minimize -m(tf)/m0 (scaled).
         J = -X[N, 6]
@@ -573,8 +700,12 @@ class LgrNlp:
         lbU[:, 1], ubU[:, 1] = -lim / self.u_scale[1], lim / self.u_scale[1]
         self.lbw = self._pack(lbX, lbU, tf_bounds[0] / self.tf_scale)
         self.ubw = self._pack(ubX, ubU, tf_bounds[1] / self.tf_scale)
-        self.lbg = np.zeros(g.shape[0])
-        self.ubg = np.zeros(g.shape[0])
+        # The path rows' upper bound is -BOUND_RELAX, not 0: IPOPT widens
+        # every bound by bound_relax_factor * max(1, |bound|) before it
+        # starts, so g <= 0 could end at g = +1e-8 (scaled: 1e-6 m for the
+        # cone), while g <= -1e-8 widens to g <= 0 exactly.
+        self.lbg = np.concatenate([np.zeros(n_defects), np.full(self.n_path_rows, -inf)])
+        self.ubg = np.concatenate([np.zeros(n_defects), np.full(self.n_path_rows, -BOUND_RELAX)])
 
         opts = {
             "print_time": False,
@@ -582,6 +713,7 @@ class LgrNlp:
             "ipopt.sb": "yes",            # no IPOPT banner
             "ipopt.tol": tol,
             "ipopt.max_iter": max_iter,
+            "ipopt.bound_relax_factor": BOUND_RELAX,   # IPOPT's default, named
         }
         self.solver = ca.nlpsol("lgr", "ipopt", {"x": w, "f": J, "g": g}, opts)
         self.build_time = time.perf_counter() - t0
@@ -611,6 +743,23 @@ class LgrNlp:
         wall = time.perf_counter() - t0
         stats = self.solver.stats()
         return sol, stats, wall
+
+    def path_sensitivities(self, lam_g) -> dict[str, float]:
+        """Each limit's multipliers as a fuel price: the sum over its rows
+        (both signs, all free nodes) of m0 lambda / row scale, i.e. dm_f/db,
+        the kg of final mass gained per unit (the row's unit) by which every
+        one of its rows is loosened. > 0: the limit is active; 0: inactive."""
+        c = self.sc.constraints
+        if c is None:
+            return {}
+        lam = np.asarray(lam_g).ravel()[self.n_defects:]
+        names = [limit for limit in c.limits() for _ in (1, -1)]   # row order at a node
+        lam = lam.reshape(self.N - 1, len(names)) if self.N > 1 else lam.reshape(0, len(names))
+        out: dict[str, float] = {}
+        for j, limit in enumerate(names):
+            out[limit] = out.get(limit, 0.0) + float(np.sum(lam[:, j])) \
+                * self.sc.x0[6] / self.row_scale[limit]
+        return out
 
     def unpack_physical(self, wopt: np.ndarray):
         X, U, tf_s = self._split(np.asarray(wopt).ravel())
@@ -743,6 +892,9 @@ def main(argv=None) -> int:
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     ap.add_argument("--ground", action="store_true",
                     help="impose z >= z_f at every node after the first (bellyflop's ground bound)")
+    ap.add_argument("--no-constraints", action="store_true",
+                    help="ignore the scenario's [constraints] table (solve the paper's "
+                         "problem from the same file)")
     ap.add_argument("--tol", type=float, default=1e-9, help="IPOPT tol")
     ap.add_argument("--max-iter", type=int, default=3000, help="IPOPT max_iter")
     ap.add_argument("--p2-delta", choices=["state", "chi"], default="state",
@@ -754,6 +906,13 @@ def main(argv=None) -> int:
         sc = load_scenario(args.scenario)
     except ValueError as exc:
         ap.error(str(exc))
+    if args.no_constraints:
+        sc = dataclasses.replace(sc, constraints=None)
+    if sc.constraints is not None:
+        try:
+            check_fixed_ends(sc, sc.constraints)
+        except ValueError as exc:
+            ap.error(f"{args.scenario}: [constraints]: {exc}")
 
     # The mesh: an explicit layout from the command line (--breaks-tau and
     # --points, or --layout-json), else the scenario's [discretization.mesh]
@@ -811,7 +970,8 @@ def main(argv=None) -> int:
     wopt = np.asarray(sol["x"]).ravel()
     X, U, tf = nlp.unpack_physical(wopt)
     t_nodes = (nlp.tau_all + 1.0) * tf / 2.0
-    max_defect = float(np.max(np.abs(np.asarray(sol["g"])))) if sol["g"].numel() else 0.0
+    defects = np.asarray(sol["g"]).ravel()[:nlp.n_defects]
+    max_defect = float(np.max(np.abs(defects))) if defects.size else 0.0
 
     sf = reintegrate(sc, args.problem, t_nodes[:N], U, X, tf, p2_delta=args.p2_delta)
     pos_err = float(np.hypot(sf[0] - sc.xf[0], sf[1] - sc.xf[1]))
@@ -858,6 +1018,14 @@ def main(argv=None) -> int:
     }
     if args.problem == "P2":
         out["gimbal_rate_radps"] = U[:, 1].tolist()
+    # The [constraints] table as read (null: none, or --no-constraints) and
+    # each limit's rows over the nodes (constraint_report).
+    c = sc.constraints
+    out["constraints"] = None if c is None else c.as_dict()
+    out["constraint_rows"] = None if c is None else constraint_report(c, sc.xf, X)
+    if c is not None:
+        for limit, kg in nlp.path_sensitivities(sol["lam_g"]).items():
+            out["constraint_rows"][limit]["dmf_dbound_kg_per_unit"] = kg
 
     if args.json:
         json.dump(out, sys.stdout)
@@ -875,6 +1043,12 @@ def main(argv=None) -> int:
               f"(median of {len(walls)})")
         print(f"  re-integrated landing error: position {pos_err:.4f} m, "
               f"velocity {vel_err:.4f} m/s")
+        if c is not None:
+            print("  constraints: " + ", ".join(f"{k} = {v:g}" for k, v in c.as_dict().items()))
+            for limit, r in out["constraint_rows"].items():
+                print(f"    {limit:<13s} max row {r['max_free']:+.3e} {r['unit']} at free "
+                      f"node {r['node_free']}, dm_f/dbound {r['dmf_dbound_kg_per_unit']:.4g} "
+                      f"kg/({r['unit']})")
         print("  thrust [kN] at collocation points: "
               + " ".join(f"{v / 1e3:.0f}" for v in U[:, 0]))
     return 0 if out["success"] else 1
