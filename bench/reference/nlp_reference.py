@@ -18,6 +18,11 @@ collocation mesh is either the paper's single global LGR interval (M = 1), an
 hp mesh of M equal LGR intervals, or an explicit layout of interval breaks and
 points per interval (see `LgrMesh`).
 
+An optional `[constraints]` table of the scenario adds the operational path
+constraints of issue 37 (approach cone, pitch-rate limit, tilt limit below an
+altitude, lateral-speed limit in the final descent) as smooth rows at the free
+LGR nodes; `--no-constraints` ignores it (see `constraint_rows`).
+
 Nothing from the rest of the repository is imported: the only inputs are the
 scenario TOML file and the command-line options.
 
@@ -28,6 +33,8 @@ Usage:
         --breaks-tau -1,-0.2,1 --points 8,8        # explicit mesh layout
     python nlp_reference.py --scenario ../../scenarios/paper.toml --problem P2 \
         --layout-json bellyflop_solve.json         # bellyflop's solved mesh
+    python nlp_reference.py --scenario with_constraints.toml --problem P2 \
+        [--no-constraints]                         # [constraints] on / off
 """
 
 from __future__ import annotations
