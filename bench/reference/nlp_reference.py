@@ -18,6 +18,11 @@ collocation mesh is either the paper's single global LGR interval (M = 1), an
 hp mesh of M equal LGR intervals, or an explicit layout of interval breaks and
 points per interval (see `LgrMesh`).
 
+An optional `[constraints]` table of the scenario adds the operational path
+constraints of issue 37 (approach cone, pitch-rate limit, tilt limit below an
+altitude, lateral-speed limit in the final descent) as smooth rows at the free
+LGR nodes; `--no-constraints` ignores it (see `constraint_rows`).
+
 Nothing from the rest of the repository is imported: the only inputs are the
 scenario TOML file and the command-line options.
 
@@ -28,6 +33,8 @@ Usage:
         --breaks-tau -1,-0.2,1 --points 8,8        # explicit mesh layout
     python nlp_reference.py --scenario ../../scenarios/paper.toml --problem P2 \
         --layout-json bellyflop_solve.json         # bellyflop's solved mesh
+    python nlp_reference.py --scenario with_constraints.toml --problem P2 \
+        [--no-constraints]                         # [constraints] on / off
 """
 
 from __future__ import annotations
@@ -38,6 +45,7 @@ import math
 import sys
 import time
 import tomllib
+import dataclasses
 from dataclasses import dataclass
 
 import casadi as ca
@@ -78,6 +86,9 @@ class Scenario:
     # intervals = len(points).
     mesh_breaks_tau: tuple[float, ...] | None = None
     mesh_points: tuple[int, ...] | None = None
+    # The operational path constraints of the optional [constraints] table
+    # (None: none, the paper's problem).
+    constraints: Constraints | None = None
 
     def mesh(self) -> "LgrMesh":
         """The scenario's default mesh: its explicit layout, else uniform."""
@@ -90,7 +101,9 @@ def load_scenario(path: str) -> Scenario:
     """Read a scenario TOML file. An optional `[discretization.mesh]` table
     (`breaks_tau`, M + 1 values from -1 to 1; `points`, M sizes >= 2) defines
     the mesh and overrides `nodes` and `intervals` (N = sum(points),
-    M = len(points)); an invalid table raises ValueError."""
+    M = len(points)); an optional `[constraints]` table switches on the
+    operational path constraints (`parse_constraints`). An invalid table
+    raises ValueError."""
     with open(path, "rb") as fh:
         d = tomllib.load(fh)
     v, e, i, f = d["vehicle"], d["environment"], d["initial"], d["terminal"]
@@ -105,6 +118,10 @@ def load_scenario(path: str) -> Scenario:
             breaks, points = validate_layout(tbl["breaks_tau"], tbl["points"])
         except ValueError as exc:
             raise ValueError(f"{path}: [discretization.mesh]: {exc}") from None
+    try:
+        constraints = parse_constraints(d.get("constraints"))
+    except ValueError as exc:
+        raise ValueError(f"{path}: [constraints]: {exc}") from None
     return Scenario(
         name=d.get("name", path),
         m_dry=v["dry_mass_kg"], l_s=v["length_m"], r_s=v["radius_m"],
@@ -122,7 +139,195 @@ def load_scenario(path: str) -> Scenario:
         intervals=len(points) if points else int(disc.get("intervals", 1)),
         mesh_breaks_tau=tuple(breaks) if points else None,
         mesh_points=tuple(points) if points else None,
+        constraints=constraints,
     )
+
+
+# --------------------------------------------------------------------------
+# Operational path constraints (issue 37): the optional [constraints] table
+# --------------------------------------------------------------------------
+SIGMA_M = 1.0                  # softplus width of the altitude triggers [m]
+S_TILT = math.pi / 180.0       # tilt limit's opening above tilt_below_m [rad/m] (1 deg/m)
+S_LAT = 1.0                    # lateral limit's opening above final_descent_m [(m/s)/m]
+
+# Each field of [constraints]: (lowest, highest, lowest excluded). All optional.
+CONSTRAINT_RANGES = {
+    "cone_half_angle_deg": (1.0, 89.0, False),
+    "max_pitch_rate_degps": (0.0, 360.0, True),
+    "max_tilt_deg": (0.0, 90.0, False),
+    "tilt_below_m": (0.0, 1e5, False),
+    "final_descent_m": (0.0, 1e5, False),
+    "final_descent_lateral_mps": (0.0, 100.0, False),
+}
+# Fields that switch a limit on only together.
+CONSTRAINT_PAIRS = (("max_tilt_deg", "tilt_below_m"),
+                    ("final_descent_m", "final_descent_lateral_mps"))
+# The limits in row order: name -> (unit of its rows' values, description).
+LIMITS = {
+    "cone": ("m", "the approach cone"),
+    "pitch_rate": ("rad/s", "the pitch-rate limit"),
+    "tilt": ("rad", "the tilt limit"),
+    "final_descent": ("m/s", "the final descent's lateral-speed limit"),
+}
+
+
+@dataclass(frozen=True)
+class Constraints:
+    """The `[constraints]` table, in its own units (deg, deg/s, m, m/s);
+    None is off. See `constraint_rows` for the rows they give."""
+
+    cone_half_angle_deg: float | None = None
+    max_pitch_rate_degps: float | None = None
+    max_tilt_deg: float | None = None
+    tilt_below_m: float | None = None
+    final_descent_m: float | None = None
+    final_descent_lateral_mps: float | None = None
+
+    def as_dict(self) -> dict:
+        """The fields given, as in the table (for the JSON output)."""
+        return {k: getattr(self, k) for k in CONSTRAINT_RANGES if getattr(self, k) is not None}
+
+    def limits(self) -> list[str]:
+        """The names (keys of LIMITS) of the limits switched on, in row order."""
+        on = {"cone": self.cone_half_angle_deg is not None,
+              "pitch_rate": self.max_pitch_rate_degps is not None,
+              "tilt": self.max_tilt_deg is not None,
+              "final_descent": self.final_descent_m is not None}
+        return [k for k in LIMITS if on[k]]
+
+
+def parse_constraints(tbl) -> Constraints | None:
+    """Check a `[constraints]` table (the dict from the TOML, or None) and
+    return it, or None when it is absent or empty (no limit: the paper's
+    problem). Every field is optional and must be a number within
+    CONSTRAINT_RANGES; the fields of a CONSTRAINT_PAIRS pair come together;
+    an unknown field is refused (a misspelt limit must not silently be off).
+    Raises ValueError naming the field."""
+    if tbl is None:
+        return None
+    if not isinstance(tbl, dict):
+        raise ValueError(f"must be a table (got {tbl!r})")
+    unknown = [k for k in tbl if k not in CONSTRAINT_RANGES]
+    if unknown:
+        raise ValueError(f"unknown field(s) {', '.join(unknown)}; the fields are "
+                         f"{', '.join(CONSTRAINT_RANGES)}")
+    vals = {}
+    for key, v in tbl.items():
+        lo, hi, lo_open = CONSTRAINT_RANGES[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise ValueError(f"{key} must be a number (got {v!r})")
+        v = float(v)
+        if not (math.isfinite(v) and (v > lo if lo_open else v >= lo) and v <= hi):
+            raise ValueError(f"{key} = {v:g} is out of range: allowed "
+                             f"{'(' if lo_open else '['}{lo:g}, {hi:g}]")
+        vals[key] = v
+    for a, b in CONSTRAINT_PAIRS:
+        if (a in vals) != (b in vals):
+            have, missing = (a, b) if a in vals else (b, a)
+            raise ValueError(f"{have} needs {missing}: the two are given together")
+    return Constraints(**vals) if vals else None
+
+
+def softplus(u, lib=np):
+    """sp(u) = SIGMA ln(1 + exp(u / SIGMA)), written as
+    max(u, 0) + SIGMA log1p(exp(-|u| / SIGMA)) so that it never overflows.
+    `lib` is numpy or casadi (both have fmax, fabs, log1p, exp). The direct
+    form overflows to inf (and NaN derivatives) for u > 709 SIGMA, i.e. at
+    altitudes 709 m above a trigger, which initial states and iterates can
+    reach. In CasADi this form's value and gradient are exact everywhere (the
+    derivative of fmax at u = 0 is 1/2, which is sp'(0)); its AD Hessian is
+    exact except at u == 0.0 exactly, where sign(0) = 0 gives 0 instead of
+    1/(4 SIGMA): a single floating-point value that the iterates do not hit."""
+    return lib.fmax(u, 0.0) + SIGMA_M * lib.log1p(lib.exp(-lib.fabs(u) / SIGMA_M))
+
+
+def constraint_rows(c: Constraints, xf, s, lib=np) -> list[tuple[str, object]]:
+    """The smooth rows g <= 0 of the limits switched on, at the state
+    s = [x, z, Vx, Vz, theta, w, m] in physical units (numbers, numpy arrays
+    over nodes, or CasADi expressions; `lib` as in `softplus`). Returns
+    [(limit, g)], two rows (+ then -) per limit in LIMITS order, each in the
+    unit of LIMITS. With dx = x - x_f, dz = z - z_f (the pad):
+      cone:          +-dx - tan(gamma) dz                      [m]
+      pitch_rate:    +-w - w_max                               [rad/s]
+      tilt:          +-theta - theta_max - S_TILT sp(dz - h)   [rad]
+      final_descent: +-Vx - v_fd - S_LAT sp(dz - h_fd)         [m/s]
+    """
+    dx, dz = s[0] - xf[0], s[1] - xf[1]
+    rows: list[tuple[str, object]] = []
+
+    def both(limit, y, bound):
+        rows.append((limit, y - bound))
+        rows.append((limit, -y - bound))
+
+    if c.cone_half_angle_deg is not None:
+        both("cone", dx, math.tan(math.radians(c.cone_half_angle_deg)) * dz)
+    if c.max_pitch_rate_degps is not None:
+        both("pitch_rate", s[5], math.radians(c.max_pitch_rate_degps))
+    if c.max_tilt_deg is not None:
+        both("tilt", s[4], math.radians(c.max_tilt_deg)
+             + S_TILT * softplus(dz - c.tilt_below_m, lib))
+    if c.final_descent_m is not None:
+        both("final_descent", s[2], c.final_descent_lateral_mps
+             + S_LAT * softplus(dz - c.final_descent_m, lib))
+    return rows
+
+
+def constraint_report(c: Constraints, xf, X: np.ndarray) -> dict:
+    """Each limit's rows over the N + 1 state nodes of X ((N+1) x >=7,
+    physical): {limit: {"unit", "per_node" (max of its two rows at each
+    node), "max" (over all nodes), "node" (where), "max_free" (over the free
+    nodes 1..N-1, where the NLP imposes it; the two ends are fixed) and
+    "node_free"}}. A row value <= 0 holds; the free maximum near 0 means the
+    limit is active. (At t_f the cone's value is 0 by construction: the apex.)"""
+    per: dict[str, np.ndarray] = {}
+    for limit, g in constraint_rows(c, xf, [X[:, k] for k in range(7)]):
+        per[limit] = np.maximum(per[limit], g) if limit in per else np.asarray(g, float)
+    out = {}
+    for limit, v in per.items():
+        k = int(np.argmax(v))
+        kf = 1 + int(np.argmax(v[1:-1])) if len(v) > 2 else None
+        out[limit] = {"unit": LIMITS[limit][0], "max": float(v[k]), "node": k,
+                      "max_free": None if kf is None else float(v[kf]), "node_free": kf,
+                      "per_node": v.tolist()}
+    return out
+
+
+def _row_detail(limit: str, c: Constraints, xf, state) -> str:
+    """A limit's row written out with the numbers of one state (for messages)."""
+    x, z, vx, th, w = state[0], state[1], state[2], state[4], state[5]
+    dx, dz = x - xf[0], z - xf[1]
+    if limit == "cone":
+        return (f"|x - x_f| - tan(gamma) (z - z_f) with gamma = {c.cone_half_angle_deg:g} deg, "
+                f"x - x_f = {dx:g} m, z - z_f = {dz:g} m")
+    if limit == "pitch_rate":
+        return (f"|w| - w_max with w = {math.degrees(w):g} deg/s, "
+                f"w_max = {c.max_pitch_rate_degps:g} deg/s")
+    if limit == "tilt":
+        return (f"|theta| - theta_max - S_TILT sp(z - z_f - h) with theta = "
+                f"{math.degrees(th):g} deg, theta_max = {c.max_tilt_deg:g} deg, "
+                f"z - z_f = {dz:g} m, h = {c.tilt_below_m:g} m")
+    return (f"|Vx| - v_fd - S_LAT sp(z - z_f - h_fd) with Vx = {vx:g} m/s, "
+            f"v_fd = {c.final_descent_lateral_mps:g} m/s, z - z_f = {dz:g} m, "
+            f"h_fd = {c.final_descent_m:g} m")
+
+
+def check_fixed_ends(sc: Scenario, c: Constraints, tol: float = 1e-9) -> None:
+    """The states at t = 0 ([initial]) and at t_f ([terminal]) are fixed, so
+    the NLP cannot move them onto a limit: raise ValueError naming each limit
+    that either breaks (row value > tol in its unit), with the value, instead
+    of letting IPOPT fail without saying why."""
+    bad = []
+    for where, state in (("initial", sc.x0), ("terminal", np.append(sc.xf, sc.x0[6]))):
+        worst: dict[str, float] = {}
+        for limit, g in constraint_rows(c, sc.xf, list(state)):
+            worst[limit] = max(worst.get(limit, -math.inf), float(g))
+        for limit, v in worst.items():
+            if v > tol:
+                bad.append(f"the {where} state breaks {LIMITS[limit][1]}: row = {v:+.6g} "
+                           f"{LIMITS[limit][0]} > 0 ({_row_detail(limit, c, sc.xf, state)})")
+    if bad:
+        raise ValueError("; ".join(bad) + ". That state is fixed, so the problem is "
+                         "infeasible: no solve attempted")
 
 
 # --------------------------------------------------------------------------
@@ -354,6 +559,10 @@ class LgrMesh:
 # --------------------------------------------------------------------------
 # NLP construction
 # --------------------------------------------------------------------------
+# IPOPT's bound_relax_factor (its default value, set explicitly): the path rows
+# are imposed as g <= -BOUND_RELAX so that IPOPT's relaxed bound is g <= 0.
+BOUND_RELAX = 1e-8
+
 class LgrNlp:
     """Builds the LGR-collocated NLP for P1 or P2 once; can be solved repeatedly.
 
@@ -447,6 +656,26 @@ class LgrNlp:
             for k in range(nx):
                 g.append(DX[i, k] - 0.5 * tf * f[k] / self.x_scale[k])
         g = ca.vertcat(*g)
+        n_defects = self.n_defects = g.shape[0]
+
+        # Operational path constraints (issue 37, sc.constraints): the rows
+        # g_c <= 0 of `constraint_rows` at the free state nodes 1..N-1 (the
+        # two ends are fixed; check_fixed_ends checks them), node by node,
+        # each divided by its state's scale (cone by x's, pitch rate by w's,
+        # tilt by theta's, final descent by Vx's) so that it is O(1) like the
+        # defects. With no table nothing is added: the paper's NLP, row for row.
+        c = sc.constraints
+        if c is not None:
+            self.row_scale = row_scale = {
+                "cone": self.x_scale[0], "pitch_rate": self.x_scale[5],
+                "tilt": self.x_scale[4], "final_descent": self.x_scale[2]}
+            rows = []
+            for i in range(1, N):
+                s = [X[i, k] * self.x_scale[k] for k in range(7)]
+                rows.extend(gi / row_scale[limit]
+                            for limit, gi in constraint_rows(c, sc.xf, s, lib=ca))
+            g = ca.vertcat(g, *rows)
+        self.n_path_rows = g.shape[0] - n_defects
 
         # Objective, Eq. (6): maximize m(tf)  ->  minimize -m(tf)/m0 (scaled).
         J = -X[N, 6]
@@ -478,8 +707,12 @@ class LgrNlp:
         lbU[:, 1], ubU[:, 1] = -lim / self.u_scale[1], lim / self.u_scale[1]
         self.lbw = self._pack(lbX, lbU, tf_bounds[0] / self.tf_scale)
         self.ubw = self._pack(ubX, ubU, tf_bounds[1] / self.tf_scale)
-        self.lbg = np.zeros(g.shape[0])
-        self.ubg = np.zeros(g.shape[0])
+        # The path rows' upper bound is -BOUND_RELAX, not 0: IPOPT widens
+        # every bound by bound_relax_factor * max(1, |bound|) before it
+        # starts, so g <= 0 could end at g = +1e-8 (scaled: 1e-6 m for the
+        # cone), while g <= -1e-8 widens to g <= 0 exactly.
+        self.lbg = np.concatenate([np.zeros(n_defects), np.full(self.n_path_rows, -inf)])
+        self.ubg = np.concatenate([np.zeros(n_defects), np.full(self.n_path_rows, -BOUND_RELAX)])
 
         opts = {
             "print_time": False,
@@ -487,6 +720,7 @@ class LgrNlp:
             "ipopt.sb": "yes",            # no IPOPT banner
             "ipopt.tol": tol,
             "ipopt.max_iter": max_iter,
+            "ipopt.bound_relax_factor": BOUND_RELAX,   # IPOPT's default, named
         }
         self.solver = ca.nlpsol("lgr", "ipopt", {"x": w, "f": J, "g": g}, opts)
         self.build_time = time.perf_counter() - t0
@@ -516,6 +750,23 @@ class LgrNlp:
         wall = time.perf_counter() - t0
         stats = self.solver.stats()
         return sol, stats, wall
+
+    def path_sensitivities(self, lam_g) -> dict[str, float]:
+        """Each limit's multipliers as a fuel price: the sum over its rows
+        (both signs, all free nodes) of m0 lambda / row scale, i.e. dm_f/db,
+        the kg of final mass gained per unit (the row's unit) by which every
+        one of its rows is loosened. > 0: the limit is active; 0: inactive."""
+        c = self.sc.constraints
+        if c is None:
+            return {}
+        lam = np.asarray(lam_g).ravel()[self.n_defects:]
+        names = [limit for limit in c.limits() for _ in (1, -1)]   # row order at a node
+        lam = lam.reshape(self.N - 1, len(names)) if self.N > 1 else lam.reshape(0, len(names))
+        out: dict[str, float] = {}
+        for j, limit in enumerate(names):
+            out[limit] = out.get(limit, 0.0) + float(np.sum(lam[:, j])) \
+                * self.sc.x0[6] / self.row_scale[limit]
+        return out
 
     def unpack_physical(self, wopt: np.ndarray):
         X, U, tf_s = self._split(np.asarray(wopt).ravel())
@@ -648,6 +899,9 @@ def main(argv=None) -> int:
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     ap.add_argument("--ground", action="store_true",
                     help="impose z >= z_f at every node after the first (bellyflop's ground bound)")
+    ap.add_argument("--no-constraints", action="store_true",
+                    help="ignore the scenario's [constraints] table (solve the paper's "
+                         "problem from the same file)")
     ap.add_argument("--tol", type=float, default=1e-9, help="IPOPT tol")
     ap.add_argument("--max-iter", type=int, default=3000, help="IPOPT max_iter")
     ap.add_argument("--p2-delta", choices=["state", "chi"], default="state",
@@ -659,6 +913,13 @@ def main(argv=None) -> int:
         sc = load_scenario(args.scenario)
     except ValueError as exc:
         ap.error(str(exc))
+    if args.no_constraints:
+        sc = dataclasses.replace(sc, constraints=None)
+    if sc.constraints is not None:
+        try:
+            check_fixed_ends(sc, sc.constraints)
+        except ValueError as exc:
+            ap.error(f"{args.scenario}: [constraints]: {exc}")
 
     # The mesh: an explicit layout from the command line (--breaks-tau and
     # --points, or --layout-json), else the scenario's [discretization.mesh]
@@ -716,7 +977,8 @@ def main(argv=None) -> int:
     wopt = np.asarray(sol["x"]).ravel()
     X, U, tf = nlp.unpack_physical(wopt)
     t_nodes = (nlp.tau_all + 1.0) * tf / 2.0
-    max_defect = float(np.max(np.abs(np.asarray(sol["g"])))) if sol["g"].numel() else 0.0
+    defects = np.asarray(sol["g"]).ravel()[:nlp.n_defects]
+    max_defect = float(np.max(np.abs(defects))) if defects.size else 0.0
 
     sf = reintegrate(sc, args.problem, t_nodes[:N], U, X, tf, p2_delta=args.p2_delta)
     pos_err = float(np.hypot(sf[0] - sc.xf[0], sf[1] - sc.xf[1]))
@@ -763,6 +1025,14 @@ def main(argv=None) -> int:
     }
     if args.problem == "P2":
         out["gimbal_rate_radps"] = U[:, 1].tolist()
+    # The [constraints] table as read (null: none, or --no-constraints) and
+    # each limit's rows over the nodes (constraint_report).
+    c = sc.constraints
+    out["constraints"] = None if c is None else c.as_dict()
+    out["constraint_rows"] = None if c is None else constraint_report(c, sc.xf, X)
+    if c is not None:
+        for limit, kg in nlp.path_sensitivities(sol["lam_g"]).items():
+            out["constraint_rows"][limit]["dmf_dbound_kg_per_unit"] = kg
 
     if args.json:
         json.dump(out, sys.stdout)
@@ -780,6 +1050,12 @@ def main(argv=None) -> int:
               f"(median of {len(walls)})")
         print(f"  re-integrated landing error: position {pos_err:.4f} m, "
               f"velocity {vel_err:.4f} m/s")
+        if c is not None:
+            print("  constraints: " + ", ".join(f"{k} = {v:g}" for k, v in c.as_dict().items()))
+            for limit, r in out["constraint_rows"].items():
+                print(f"    {limit:<13s} max row {r['max_free']:+.3e} {r['unit']} at free "
+                      f"node {r['node_free']}, dm_f/dbound {r['dmf_dbound_kg_per_unit']:.4g} "
+                      f"kg/({r['unit']})")
         print("  thrust [kN] at collocation points: "
               + " ".join(f"{v / 1e3:.0f}" for v in U[:, 0]))
     return 0 if out["success"] else 1
