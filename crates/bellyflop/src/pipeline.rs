@@ -4,10 +4,11 @@
 //! (see [`solve`]).
 
 use crate::input::scenario::{Case, Scenario};
-use crate::input::settings::SolverSettings;
+use crate::input::settings::{Method, SolverSettings};
 use crate::method::observer::Observer;
 use crate::method::{self, Start};
 use crate::polish;
+use crate::problem::constraints::{self, Limit};
 use crate::problem::feasibility;
 use crate::refine;
 use crate::solution::{Solution, Status};
@@ -31,6 +32,12 @@ use crate::verify::{accuracy, path};
 ///    it is `inaccurate`. A polished answer that fails either gives way to
 ///    the raw answer, `inaccurate`, with the reason.
 ///
+/// With operational constraints (issue 37) that the direct method does not
+/// hold at its nodes (the cone, the tilt limit, the final descent: it holds
+/// the pitch-rate bound), its polished answer may fail them; then SCvx,
+/// which holds them all at its nodes, solves again and its answer is
+/// returned when it is `solved` (its `method` says so), both times counted.
+///
 /// With `solver.refinement.tolerance` > 0 the mesh is refined until every
 /// interval's relative error is within it ([`refine::solve`]), and step 3
 /// checks the last pass's answer.
@@ -41,6 +48,51 @@ use crate::verify::{accuracy, path};
 /// ([`method::Solver`], as the closed loop's re-plans call them) skip all
 /// three steps.
 pub fn solve(
+    scenario: &Scenario,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+) -> Solution {
+    let sol = solve_with(scenario, settings, observer);
+    if sol.status == Status::Solved || !needs_rows_at_nodes(scenario, settings) {
+        return sol;
+    }
+    // The direct method holds only the pitch-rate limit at its nodes; from
+    // its answer the polish could not reach the other limits. SCvx holds
+    // them all at its nodes: its answer, polished, when that one is solved.
+    let scvx = SolverSettings {
+        method: Method::Scvx,
+        ..settings.clone()
+    };
+    let mut other = solve_with(scenario, &scvx, observer);
+    other.solve_time_ms += sol.solve_time_ms;
+    if other.status == Status::Solved {
+        // Its `method` says which answered.
+        other
+    } else {
+        let mut sol = sol;
+        sol.solve_time_ms = other.solve_time_ms;
+        sol.message = format!(
+            "{}; SCvx, which holds every limit at its nodes, did not give a solved answer either: {}",
+            sol.message, other.message
+        );
+        sol
+    }
+}
+
+/// Whether the scenario has operational rows that the direct method does
+/// not hold at its nodes (all but the pitch-rate bound), and the settings
+/// name it, polished, on the scenario's own mesh.
+fn needs_rows_at_nodes(scenario: &Scenario, settings: &SolverSettings) -> bool {
+    settings.method == Method::Direct
+        && settings.polish
+        && settings.refinement.tolerance == 0.0
+        && constraints::rows(scenario)
+            .iter()
+            .any(|r| r.limit != Limit::PitchRate)
+}
+
+/// [`solve`] with the one method that the settings name.
+fn solve_with(
     scenario: &Scenario,
     settings: &SolverSettings,
     observer: &mut dyn Observer,
@@ -124,6 +176,7 @@ fn fall_back(
 /// stays, the landing check judges it as it is, and the polish's failure
 /// joins the message (the check names the miss if it demotes the answer).
 fn polish_answer(scenario: &Scenario, settings: &SolverSettings, sol: &mut Solution) {
+    let clock = std::time::Instant::now();
     let outcome = polish::polish(scenario, sol, settings.polish_repairs)
         .map_err(|e| e.to_string())
         .and_then(|p| {
@@ -135,6 +188,8 @@ fn polish_answer(scenario: &Scenario, settings: &SolverSettings, sol: &mut Solut
     match outcome {
         Ok(ms) => sol.solve_time_ms += ms,
         Err(e) => {
+            // A failed polish took its time too.
+            sol.solve_time_ms += clock.elapsed().as_secs_f64() * 1e3;
             sol.message = format!("the polish failed, so this is the raw collocation answer: {e}")
         }
     }

@@ -9,7 +9,6 @@ use serde::{Deserialize, Serialize};
 use crate::input::error::InputError;
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::settings::SolverSettings;
-pub use crate::problem::constraints::Constraints;
 
 /// Vehicle parameters (paper Table 1, plus the drag coefficient from NOTES.md).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -107,6 +106,55 @@ impl TerminalState {
             self.theta_deg.to_radians(),
             self.pitch_rate_degps.to_radians(),
         ]
+    }
+}
+
+/// The `[constraints]` table of a scenario: every limit optional, off when
+/// left out. Ranges: [`crate::input::validate`]; the rows they make:
+/// [`crate::problem::constraints`].
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Constraints {
+    /// Approach cone about the pad: half-angle γ from the vertical \[deg\],
+    /// |x − x_f| ≤ (z − z_f)·tan γ along the whole flight.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cone_half_angle_deg: Option<f64>,
+    /// Pitch-rate limit w_max [deg/s]: |w| ≤ w_max along the whole flight.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_pitch_rate_degps: Option<f64>,
+    /// Tilt limit θ_max \[deg\] below `tilt_below_m` (given together).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_tilt_deg: Option<f64>,
+    /// The height above the pad below which |θ| ≤ θ_max holds \[m\].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tilt_below_m: Option<f64>,
+    /// Vertical final descent: below this height above the pad \[m\] ...
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub final_descent_m: Option<f64>,
+    /// ... the lateral speed stays within |Vx| ≤ v_d [m/s] (given together).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub final_descent_lateral_mps: Option<f64>,
+}
+
+impl Constraints {
+    /// The limits `bellyflop init` writes (commented out), each switched on:
+    /// a 30° approach cone (SCPToolbox.jl's `starship_flip` flies 27°), a
+    /// 30°/s pitch rate (SCpp's Starship set: 60°/s), upright within 10°
+    /// below 50 m, and at most 2 m/s sideways below 20 m.
+    pub fn recommended() -> Self {
+        Self {
+            cone_half_angle_deg: Some(30.0),
+            max_pitch_rate_degps: Some(30.0),
+            max_tilt_deg: Some(10.0),
+            tilt_below_m: Some(50.0),
+            final_descent_m: Some(20.0),
+            final_descent_lateral_mps: Some(2.0),
+        }
+    }
+
+    /// No limit switched on: the paper's problem.
+    pub fn is_empty(&self) -> bool {
+        *self == Self::default()
     }
 }
 

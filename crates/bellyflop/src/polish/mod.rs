@@ -257,14 +257,16 @@ pub fn polish(
     let clock = std::time::Instant::now();
     let model = Model::new(&scenario.vehicle, &scenario.environment);
     let s0 = scenario.initial.state_si();
+    let limits = constraints::rows(scenario);
     let (layout, p) = start::start(&model, sol, start::MAX_SEGMENT_S);
+    let layout = limits::resolved(layout, &limits);
     let scales = Scales::new(&layout, &model);
     let problem = Problem {
         target: scenario.terminal.state_si(),
         y0: [s0[0], s0[1], s0[2], s0[3], s0[4], s0[5], s0[6]],
         delta0: s0[7],
         dry_mass_kg: model.dry_mass_kg,
-        limits: constraints::rows(scenario),
+        limits,
         model,
         layout,
         scales,
@@ -275,6 +277,7 @@ pub fn polish(
         // The coarser start ([`start::FALLBACK_SEGMENT_S`]).
         Err(_) => {
             let (layout, p) = start::start(&problem.model, sol, start::FALLBACK_SEGMENT_S);
+            let layout = limits::resolved(layout, &problem.limits);
             let scales = Scales::new(&layout, &problem.model);
             let coarse = Problem {
                 layout,
@@ -391,6 +394,7 @@ fn repaired(problem: &Problem, first: &Run, report: &mut PolishReport) -> Option
         start::MAX_SEGMENT_S,
         start::MAX_SEGMENT_S,
     );
+    let layout = limits::resolved(layout, &problem.limits);
     let scales = Scales::new(&layout, model);
     let next = Problem {
         layout,

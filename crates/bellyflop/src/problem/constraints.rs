@@ -28,6 +28,7 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::input::scenario::Constraints;
 use crate::input::scenario::Scenario;
 use crate::problem::dynamics::ix;
 
@@ -38,54 +39,6 @@ pub const TILT_OPENING_RAD_PER_M: f64 = std::f64::consts::PI / 180.0;
 /// How fast the final descent's lateral limit opens above its altitude,
 /// S_v [(m/s)/m].
 pub const LATERAL_OPENING_PER_S: f64 = 1.0;
-
-/// The `[constraints]` table of a scenario: every limit optional, off when
-/// left out. Ranges: [`crate::input::validate`].
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Constraints {
-    /// Approach cone about the pad: half-angle γ from the vertical \[deg\],
-    /// |x − x_f| ≤ (z − z_f)·tan γ along the whole flight.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub cone_half_angle_deg: Option<f64>,
-    /// Pitch-rate limit w_max [deg/s]: |w| ≤ w_max along the whole flight.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_pitch_rate_degps: Option<f64>,
-    /// Tilt limit θ_max \[deg\] below `tilt_below_m` (given together).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_tilt_deg: Option<f64>,
-    /// The height above the pad below which |θ| ≤ θ_max holds \[m\].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub tilt_below_m: Option<f64>,
-    /// Vertical final descent: below this height above the pad \[m\] ...
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub final_descent_m: Option<f64>,
-    /// ... the lateral speed stays within |Vx| ≤ v_d [m/s] (given together).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub final_descent_lateral_mps: Option<f64>,
-}
-
-impl Constraints {
-    /// The limits `bellyflop init` writes (commented out), each switched on:
-    /// a 30° approach cone (SCPToolbox.jl's `starship_flip` flies 27°), a
-    /// 30°/s pitch rate (SCpp's Starship set: 60°/s), upright within 10°
-    /// below 50 m, and at most 2 m/s sideways below 20 m.
-    pub fn recommended() -> Self {
-        Self {
-            cone_half_angle_deg: Some(30.0),
-            max_pitch_rate_degps: Some(30.0),
-            max_tilt_deg: Some(10.0),
-            tilt_below_m: Some(50.0),
-            final_descent_m: Some(20.0),
-            final_descent_lateral_mps: Some(2.0),
-        }
-    }
-
-    /// No limit switched on: the paper's problem.
-    pub fn is_empty(&self) -> bool {
-        *self == Self::default()
-    }
-}
 
 /// Which limit a row belongs to (the JSON's and the messages' name).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -222,6 +175,18 @@ impl Row {
             (_, Shape::Cone { .. }) => 1.0,
             (Limit::Tilt, Shape::Triggered { bound, .. }) => bound.max(1f64.to_radians()),
             (_, Shape::Bound { bound, .. } | Shape::Triggered { bound, .. }) => bound.max(0.1),
+        }
+    }
+
+    /// The state the row bounds on both sides, and its limit B(y) at y
+    /// (|y_own| ≤ B(y)), for the bound and triggered rows; None for the
+    /// cone (about x_f, not 0).
+    pub fn own_and_limit(&self, y: &[f64]) -> Option<(usize, f64)> {
+        match self.shape {
+            Shape::Cone { .. } => None,
+            Shape::Bound { state, .. } | Shape::Triggered { state, .. } => {
+                Some((state, self.sign * y[state] - self.value(y)))
+            }
         }
     }
 

@@ -121,10 +121,11 @@ impl Barrier {
             std::mem::take(&mut sys.ws.dzl),
             std::mem::take(&mut sys.ws.dzu),
         );
+        let mut dzr = std::mem::take(&mut sys.dzr);
         let dw = std::mem::take(&mut sys.ws.dw);
-        let ad = sys.dual_step(it, &dw, &mut dzl, &mut dzu, (0.0, 1.0));
-        let ap = sys.bounds.max_step(&it.w, &dw, 1.0);
-        (sys.ws.dzl, sys.ws.dzu, sys.ws.dw) = (dzl, dzu, dw);
+        let ad = sys.dual_step(it, &dw, &mut dzl, &mut dzu, &mut dzr, (0.0, 1.0));
+        let ap = sys.max_step(&it.w, &dw, 1.0);
+        (sys.ws.dzl, sys.ws.dzu, sys.ws.dw, sys.dzr) = (dzl, dzu, dw, dzr);
         let (avg, _) = sys.complementarity(it, None);
         let (aff, _) = sys.complementarity(it, Some((ap, ad)));
         let sigma = (aff / avg).clamp(0.0, 1.0).powi(3);

@@ -88,6 +88,7 @@ impl Storage {
                 lambda: Vec::new(),
                 zl: Vec::new(),
                 zu: Vec::new(),
+                zr: Vec::new(),
             },
             e0_history: Vec::new(),
             filter: Vec::new(),
@@ -121,6 +122,7 @@ impl Storage {
             (&mut it.lambda, nc),
             (&mut it.zl, nv),
             (&mut it.zu, nv),
+            (&mut it.zr, nlp.limits.len() * nlp.n),
         ] {
             v.reserve(len.saturating_sub(v.len()));
         }
@@ -294,6 +296,7 @@ impl<'a> Driver<'a> {
             BOUND_PUSH
         };
         self.sys.bounds.push_inside(&mut w, push);
+        self.sys.rows.push_inside(nlp, &mut w);
         let b = &self.sys.bounds;
         let mu0 = self.barrier.mu;
         // Cold: z = 1 (§3.6). Warm: the given z, at least μ_0/s.
@@ -315,7 +318,16 @@ impl<'a> Driver<'a> {
         let mut lambda = std::mem::take(&mut spare.lambda);
         lambda.clear();
         lambda.resize(nc, 0.0);
-        let mut it = Iterate { w, lambda, zl, zu };
+        let mut zr = std::mem::take(&mut spare.zr);
+        zr.clear();
+        zr.resize(self.sys.rows.len(), 1.0);
+        let mut it = Iterate {
+            w,
+            lambda,
+            zl,
+            zu,
+            zr,
+        };
         self.sys.evaluate(&it.w, &it.lambda);
         match lambda0 {
             Some(l) if l.len() == nc => it.lambda.copy_from_slice(l),

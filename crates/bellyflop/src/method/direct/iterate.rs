@@ -11,6 +11,8 @@ pub(super) struct Iterate {
     pub(super) lambda: Vec<f64>,
     pub(super) zl: Vec<f64>,
     pub(super) zu: Vec<f64>,
+    /// The multipliers of the operational rows ([`super::rows`]).
+    pub(super) zr: Vec<f64>,
 }
 
 /// Which bounds each variable has (fixed variables have neither).

@@ -172,7 +172,7 @@ impl FilterLineSearch {
         } else {
             GAMMA_ALPHA * GAMMA_THETA
         };
-        let mut alpha = sys.bounds.max_step(w, dw, tau);
+        let mut alpha = sys.max_step(w, dw, tau);
         let mut trials = 0;
         loop {
             trials += 1;
@@ -227,7 +227,7 @@ impl FilterLineSearch {
                 std::mem::take(&mut sys.ws.dw),
                 std::mem::take(&mut sys.ws.dl),
             );
-            let a_soc = sys.bounds.max_step(w, &d, tau);
+            let a_soc = sys.max_step(w, &d, tau);
             let (theta, phi) = sys.trial_point(w, &d, a_soc, mu);
             let accepted = self.acceptable(o, alpha, theta, phi);
             if let Some(f_type) = accepted {

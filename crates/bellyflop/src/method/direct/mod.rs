@@ -42,6 +42,7 @@ mod newton;
 #[doc(hidden)] // internals, for the benchmarks and tests; not the API
 pub mod nlp;
 mod restoration;
+mod rows;
 pub mod solver;
 
 use crate::input::settings::DirectSettings;

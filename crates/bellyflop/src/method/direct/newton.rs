@@ -11,6 +11,7 @@
 use crate::method::direct::iterate::{inf_norm, l1_norm, Bounds, Iterate};
 use crate::method::direct::kkt::{Inertia, KktMatrix, KktSolver};
 use crate::method::direct::nlp::{Nlp, PointDerivatives, NL, NS};
+use crate::method::direct::rows::NodeRows;
 
 /// s_max of the scaled optimality error (Eq. 5).
 const S_MAX: f64 = 100.0;
@@ -171,6 +172,10 @@ impl Workspace {
 pub(super) struct Newton<'a> {
     pub(super) nlp: &'a Nlp,
     pub(super) bounds: Bounds,
+    /// The operational rows at the nodes, evaluated with the iterate.
+    pub(super) rows: NodeRows,
+    /// Their multiplier step.
+    pub(super) dzr: Vec<f64>,
     pub(super) ws: Workspace,
     /// Free primal variables (with t̂_f).
     n_primal: usize,
@@ -181,10 +186,13 @@ impl<'a> Newton<'a> {
     /// `nlp`).
     pub(super) fn with_parts(nlp: &'a Nlp, ws: Workspace, bounds: Bounds) -> Self {
         let nv = nlp.n_var();
+        let rows = NodeRows::new(nlp);
         Newton {
             nlp,
             ws,
             bounds,
+            dzr: vec![0.0; rows.len()],
+            rows,
             n_primal: (0..nv).filter(|&j| !nlp.is_fixed(j)).count(),
         }
     }
@@ -196,7 +204,15 @@ impl<'a> Newton<'a> {
 
     /// φ_μ(w) = f(w) + barrier.
     pub(super) fn phi(&self, w: &[f64], mu: f64) -> f64 {
-        self.nlp.objective(w) + self.bounds.barrier(w, mu)
+        self.nlp.objective(w) + self.bounds.barrier(w, mu) + self.rows.barrier(self.nlp, w, mu)
+    }
+
+    /// Largest α ≤ 1 that keeps a fraction τ of every slack: the bounds'
+    /// and the rows' (at the evaluated point w).
+    pub(super) fn max_step(&self, w: &[f64], dw: &[f64], tau: f64) -> f64 {
+        self.bounds
+            .max_step(w, dw, tau)
+            .min(self.rows.max_step(self.nlp, dw, tau))
     }
 
     /// Derivatives at every collocation point, with multipliers λ.
@@ -209,6 +225,7 @@ impl<'a> Newton<'a> {
             self.ws.derivs[i] = d;
         }
         self.nlp.defects(w, &mut self.ws.c);
+        self.rows.evaluate(self.nlp, w);
     }
 
     /// ∇f + Jᵀλ into ws.grad (without the bound multipliers).
@@ -220,15 +237,17 @@ impl<'a> Newton<'a> {
     /// Optimality error E_μ (Eq. 5) of the iterate; ws.grad must hold ∇f + Jᵀλ.
     pub(super) fn optimality_error(&self, it: &Iterate, mu: f64) -> (f64, f64, f64) {
         let b = &self.bounds;
-        let (mut dual, mut compl) = (0.0f64, 0.0f64);
-        let mut z_sum = 0.0;
+        let (mut compl, mut z_sum) = self.rows.complementarity_error(&it.zr, mu);
+        let mut dual = 0.0f64;
         let mut n_free = 0usize;
         for j in 0..it.w.len() {
             if !b.free[j] {
                 continue;
             }
             n_free += 1;
-            dual = dual.max((self.ws.grad[j] - it.zl[j] + it.zu[j]).abs());
+            // The rows' Σ z∇ĝ joins the Lagrangian's gradient.
+            let rows = self.rows.gradient_entry(self.nlp, &it.zr, j);
+            dual = dual.max((self.ws.grad[j] + rows - it.zl[j] + it.zu[j]).abs());
             if b.has_lo[j] {
                 compl = compl.max(((it.w[j] - b.lo[j]) * it.zl[j] - mu).abs());
                 z_sum += it.zl[j];
@@ -238,7 +257,7 @@ impl<'a> Newton<'a> {
                 z_sum += it.zu[j];
             }
         }
-        let m = it.lambda.len();
+        let m = it.lambda.len() + self.rows.len();
         let s_d = (S_MAX.max((l1_norm(&it.lambda) + z_sum) / (m + n_free) as f64)) / S_MAX;
         let s_c = (S_MAX.max(z_sum / n_free as f64)) / S_MAX;
         let primal = inf_norm(&self.ws.c);
@@ -272,6 +291,7 @@ impl<'a> Newton<'a> {
             }
         }
         kkt.h_tt = sigma(nlp.tf_idx());
+        self.rows.add_hessian(&it.zr, &mut kkt.w, false);
     }
 
     /// Factor K with W + δ_w I and δ_c; its inertia.
@@ -363,6 +383,8 @@ impl<'a> Newton<'a> {
             }
             self.ws.rw[j] = if b.free[j] { -g } else { 0.0 };
         }
+        self.rows
+            .add_barrier_gradient(self.nlp, -mu, &mut self.ws.rw);
         for (r, c) in self.ws.rl.iter_mut().zip(&self.ws.c) {
             *r = -c;
         }
@@ -438,6 +460,10 @@ impl<'a> Newton<'a> {
                 count += 1;
             }
         }
+        let (rows_sum, rows_count) =
+            self.rows
+                .complementarity(self.nlp, &it.zr, &self.ws.dw, &self.dzr, (ap, ad));
+        let (sum, count) = (sum + rows_sum, count + rows_count);
         (sum / count.max(1) as f64, count)
     }
 
@@ -450,11 +476,12 @@ impl<'a> Newton<'a> {
         dw: &[f64],
         dzl: &mut [f64],
         dzu: &mut [f64],
+        dzr: &mut [f64],
         (mu, tau): (f64, f64),
     ) -> f64 {
         let b = &self.bounds;
         let n = it.w.len();
-        let mut a = 1.0f64;
+        let mut a = self.rows.dual_step(self.nlp, &it.zr, dw, dzr, (mu, tau));
         for j in 0..n {
             if b.has_lo[j] {
                 let s = it.w[j] - b.lo[j];
@@ -485,11 +512,12 @@ impl<'a> Newton<'a> {
         dl: &[f64],
         (mu, tau): (f64, f64),
     ) {
-        let (mut dzl, mut dzu) = (
+        let (mut dzl, mut dzu, mut dzr) = (
             std::mem::take(&mut self.ws.dzl),
             std::mem::take(&mut self.ws.dzu),
+            std::mem::take(&mut self.dzr),
         );
-        let az = self.dual_step(it, dw, &mut dzl, &mut dzu, (mu, tau));
+        let az = self.dual_step(it, dw, &mut dzl, &mut dzu, &mut dzr, (mu, tau));
         for j in 0..it.w.len() {
             it.w[j] += alpha * dw[j];
         }
@@ -509,8 +537,11 @@ impl<'a> Newton<'a> {
                 it.zu[j] = z.clamp(mu / (KAPPA_SIGMA * s), KAPPA_SIGMA * mu / s);
             }
         }
+        self.rows
+            .accept(self.nlp, &it.w, &mut it.zr, &dzr, (az, mu, KAPPA_SIGMA));
         self.ws.dzl = dzl;
         self.ws.dzu = dzu;
+        self.dzr = dzr;
     }
 
     /// θ and φ_μ at w + α·d (in ws.trial, ws.c_trial).

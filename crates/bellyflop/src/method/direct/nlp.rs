@@ -26,6 +26,7 @@ use crate::collocation::mesh::Mesh;
 use crate::collocation::scaling::Scaling;
 use crate::input::scenario::Scenario;
 use crate::input::settings::{Formulation, SolverSettings};
+use crate::problem::constraints::Limit;
 use crate::problem::dynamics::{self, Model};
 
 /// States of P2 at a node: x, z, Vx, Vz, θ, w, m, δ.
@@ -102,6 +103,12 @@ pub struct Nlp {
     pub d_cols: Vec<Vec<(usize, f64)>>,
     /// Soft constraints of closed-loop plans, in the objective.
     pub soft: SoftTerms,
+    /// The pitch-rate limit w_max [rad/s] of the scenario's constraints
+    /// (issue 37): a simple bound |w| ≤ w_max at every free node.
+    pub max_pitch_rate_radps: Option<f64>,
+    /// The operational rows held at the free nodes (the tilt limit and the
+    /// final descent, [`crate::method::direct::rows`]).
+    pub limits: Vec<crate::problem::constraints::Row>,
 }
 
 /// The soft constraints of [`crate::input::settings::SolverSettings`], as exact
@@ -167,6 +174,8 @@ impl Nlp {
             xf: [0.0; 6],
             d_cols,
             soft: SoftTerms::default(),
+            max_pitch_rate_radps: None,
+            limits: Vec::new(),
         };
         nlp.refresh(s, sv);
         nlp
@@ -215,6 +224,12 @@ impl Nlp {
                 self.scaled(slot::VX, xf[slot::VX]),
             );
         }
+        self.max_pitch_rate_radps = s.constraints.max_pitch_rate_degps.map(f64::to_radians);
+        // The rows it holds at its nodes ([`crate::method::direct::rows`]).
+        self.limits = crate::problem::constraints::rows(s)
+            .into_iter()
+            .filter(|r| matches!(r.limit, Limit::Tilt | Limit::FinalDescent))
+            .collect();
         self.set_bounds(t.z_m);
     }
 
@@ -289,6 +304,9 @@ impl Nlp {
                     -m.max_gimbal_rad,
                     m.max_gimbal_rad,
                 );
+                if let Some(w) = self.max_pitch_rate_radps {
+                    set(&mut lo, &mut hi, k, slot::W, -w, w);
+                }
             }
             if k == n {
                 for s in 0..6 {

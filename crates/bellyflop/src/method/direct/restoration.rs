@@ -131,6 +131,7 @@ impl Restoration {
             }
             sys.ws.rw[j] = if b.free[j] { -g } else { 0.0 };
         }
+        sys.rows.add_barrier_gradient(nlp, -self.mu, &mut sys.ws.rw);
         for (r, c) in sys.ws.rl.iter_mut().zip(&sys.ws.c) {
             *r = -c;
         }
@@ -141,7 +142,7 @@ impl Restoration {
     /// The largest α = α_max·2^−l above 1e-8 that reduces θ below
     /// (1 − γ_θ)·`theta0`, if any.
     fn backtrack(&self, sys: &mut Newton, w: &[f64], dw: &[f64], theta0: f64) -> Option<f64> {
-        let mut alpha = sys.bounds.max_step(w, dw, self.tau);
+        let mut alpha = sys.max_step(w, dw, self.tau);
         while alpha > 1e-8 {
             let (theta, _) = sys.trial_point(w, dw, alpha, self.mu);
             if theta <= (1.0 - GAMMA_THETA) * theta0 {
