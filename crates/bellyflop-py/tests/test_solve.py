@@ -207,6 +207,27 @@ def test_certified_infeasible_is_a_status(cli, tmp_path):
     assert without_timing(sol.to_dict()) == without_timing(ref)
 
 
+def test_constraints_from_a_dict_are_held_and_equal_the_cli(cli, tmp_path):
+    # Issue 37: the scenario's [constraints] table, as the CLI reads it.
+    d = bellyflop.Scenario.paper().to_dict()
+    d["constraints"] = {"max_pitch_rate_degps": 17.0}
+    s = bellyflop.Scenario.from_dict(d)
+    assert s.constraints.max_pitch_rate_degps == 17.0
+    sol = bellyflop.solve(s)
+    assert sol.status == "solved", sol.message
+    (limit,) = sol.to_dict()["path"]["limits"]
+    assert limit["limit"] == "pitch_rate"
+    assert -1e-2 * limit["scale"] <= limit["worst"] <= 1e-3 * limit["scale"]
+    assert sol.final_mass_kg < bellyflop.solve().final_mass_kg - 1.0
+    p = tmp_path / "rate.toml"
+    p.write_text(s.to_toml())
+    ref = cli_json(cli, "solve", "--json", "--scenario", str(p))
+    assert without_timing(sol.to_dict()) == without_timing(ref)
+    d["constraints"] = {"cone_half_angle_deg": 0.5}
+    with pytest.raises(bellyflop.InputError, match=r"constraints\.cone_half_angle_deg = 0\.5 is out of range"):
+        bellyflop.Scenario.from_dict(d)
+
+
 def test_pickle_round_trip(paper):
     again = pickle.loads(pickle.dumps(paper))
     assert again.to_dict() == paper.to_dict()
