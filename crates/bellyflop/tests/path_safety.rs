@@ -42,7 +42,10 @@ fn the_ground_skimmer_is_solved_above_the_ground_and_within_its_bounds() {
     let scenario = ground_skimmer();
     let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
-    let report = sol.path.expect("a solved answer carries its path report");
+    let report = sol
+        .path
+        .clone()
+        .expect("a solved answer carries its path report");
     assert!(report.ground_contact_t_s.is_none(), "{report:?}");
     assert!(report.min_clearance_m >= -1e-3, "{report:?}");
     // Independently: no 1 ms RK4 step before the touchdown below 1 mm.

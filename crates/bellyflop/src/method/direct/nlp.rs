@@ -107,7 +107,7 @@ pub struct Nlp {
     /// (issue 37): a simple bound |w| ≤ w_max at every free node.
     pub max_pitch_rate_radps: Option<f64>,
     /// The operational rows held at the free nodes (the tilt limit and the
-    /// final descent, [`crate::method::direct::rows`]).
+    /// final descent, in the direct method's `rows` module).
     pub limits: Vec<crate::problem::constraints::Row>,
 }
 
