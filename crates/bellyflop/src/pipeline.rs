@@ -56,9 +56,10 @@ pub fn solve(
     if sol.status == Status::Solved || !needs_rows_at_nodes(scenario, settings) {
         return sol;
     }
-    // The direct method holds only the pitch-rate limit at its nodes; from
-    // its answer the polish could not reach the other limits. SCvx holds
-    // them all at its nodes: its answer, polished, when that one is solved.
+    // The direct method does not hold the cone at its nodes, and from its
+    // answer the polish may not reach a limit (it creeps on boundary arcs).
+    // SCvx holds every limit at its nodes: its answer, polished, when that
+    // one is solved.
     let scvx = SolverSettings {
         method: Method::Scvx,
         ..settings.clone()

@@ -155,3 +155,63 @@ fn the_paper_case_has_no_limits() {
     let sol = solve(&s);
     assert!(sol.path.unwrap().limits.is_empty());
 }
+
+/// The planner of the closed loop and of the C API re-plans with the raw
+/// direct method, which does not hold the cone at its nodes: its answer
+/// outside an 11° cone is `non_physical`, names the cone and where, and is
+/// not adopted as the plan. With the pitch-rate limit, which it holds as a
+/// bound, its answer is solved, adopted and within the limit at every node.
+#[test]
+fn the_planner_adopts_only_answers_within_every_limit_at_the_nodes() {
+    use bellyflop::guidance::planner::Planner;
+    use bellyflop::input::settings::Method;
+    use bellyflop::problem::dynamics::ix;
+    let direct = SolverSettings {
+        method: Method::Direct,
+        ..SolverSettings::default()
+    };
+    let cone = with(Constraints {
+        cone_half_angle_deg: Some(11.0),
+        ..Default::default()
+    });
+    let mut planner = Planner::new(cone, direct.clone());
+    let sol = planner.cold(&mut Silent);
+    assert_eq!(sol.status, Status::NonPhysical, "{}", sol.message);
+    assert!(
+        sol.message.contains("the approach cone") && sol.message.contains("at node"),
+        "{}",
+        sol.message
+    );
+    assert!(
+        planner.plan.is_none(),
+        "a non-physical answer is not adopted"
+    );
+
+    let limit_degps = 20.0;
+    let rate = with(Constraints {
+        max_pitch_rate_degps: Some(limit_degps),
+        ..Default::default()
+    });
+    let free = bellyflop::solve(&Scenario::paper(), &direct, &mut Silent);
+    let free_peak = free
+        .trajectory
+        .x
+        .iter()
+        .map(|y| y[ix::W].abs())
+        .fold(0.0, f64::max);
+    assert!(
+        free_peak > limit_degps.to_radians() * 1.1,
+        "the limit binds: {free_peak}"
+    );
+    let mut planner = Planner::new(rate, direct);
+    let sol = planner.cold(&mut Silent);
+    assert_eq!(sol.status, Status::Solved, "{}", sol.message);
+    assert!(planner.plan.is_some());
+    let peak = sol
+        .trajectory
+        .x
+        .iter()
+        .map(|y| y[ix::W].abs())
+        .fold(0.0, f64::max);
+    assert!(peak <= limit_degps.to_radians() * (1.0 + 1e-6), "{peak}");
+}

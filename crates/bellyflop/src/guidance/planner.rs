@@ -20,8 +20,10 @@ use crate::input::scenario::{InitialState, Scenario};
 use crate::input::settings::{Method, SolverSettings};
 use crate::method::observer::Observer;
 use crate::method::{self, Replan, Solver, Start};
+use crate::problem::constraints;
 use crate::problem::dynamics::{ix, NX};
-use crate::solution::Solution;
+use crate::solution::{Solution, Status};
+use crate::verify::path::LIMIT_TOLERANCE;
 
 /// Proximal weight of a warm re-plan's subproblems
 /// ([`crate::input::settings::SolverSettings::proximal_weight`]). Measured with
@@ -99,6 +101,7 @@ impl Planner {
             ..
         } = self;
         solver.solve_into(scenario, settings, Start::StraightLine, observer, out);
+        hold_limits_at_nodes(&self.scenario, out);
         self.adopt_into(out);
     }
 
@@ -188,6 +191,7 @@ impl Planner {
         } = self;
         let Some(current) = plan.as_ref() else {
             *out = solver.solve(scenario, settings, Start::StraightLine, observer);
+            hold_limits_at_nodes(&self.scenario, out);
             self.adopt_into(out);
             return Ok(());
         };
@@ -199,6 +203,7 @@ impl Planner {
             direct_max_iterations: self.direct_max_iterations,
         };
         solver.solve_into(scenario, settings, Start::Replan(replan), observer, out);
+        hold_limits_at_nodes(&self.scenario, out);
         self.adopt_into(out);
         Ok(())
     }
@@ -217,7 +222,7 @@ impl Planner {
         *out = method::guess_answer(
             &self.scenario,
             &self.settings,
-            crate::Status::NotConverged,
+            Status::NotConverged,
             "no solve yet: the straight-line guess".into(),
             0.0,
         );
@@ -231,7 +236,7 @@ impl Planner {
     /// Make `sol` the plan (in the old plan's storage, or the spare's) if
     /// it is solved; the old plan stays otherwise.
     fn adopt_into(&mut self, sol: &Solution) {
-        if sol.status != crate::Status::Solved {
+        if sol.status != Status::Solved {
             return;
         }
         if self.plan.is_none() {
@@ -249,6 +254,35 @@ impl Planner {
         if let Some(plan) = self.plan.take() {
             self.spare_plan = Some(plan);
         }
+    }
+}
+
+/// A method's `solved` answer, which the planner adopts, must hold every
+/// operational limit of the scenario at its nodes: the direct method does
+/// not hold the approach cone there (issue 37; its KKT solve eliminates x),
+/// so an answer outside the cone at a node after the first by more than the
+/// path check's tolerance ([`LIMIT_TOLERANCE`] of the row's scale) is
+/// `non_physical`, with where, and the old plan stays. Allocates only on
+/// that failure.
+fn hold_limits_at_nodes(scenario: &Scenario, out: &mut Solution) {
+    if out.status != Status::Solved {
+        return;
+    }
+    // Node 0 is the measured state, which the plan cannot change (a plan
+    // interpolant between nodes can be a little outside a limit that its
+    // nodes hold); the cold solve's own was certified by the pipeline.
+    let planned = out.trajectory.x.get(1..).unwrap_or_default();
+    if let Some(mut e) = constraints::worst_at_nodes(scenario, planned, LIMIT_TOLERANCE) {
+        e.node += 1;
+        out.status = Status::NonPhysical;
+        out.message = format!(
+            "the {} answer breaks {} at node {} by {:.4} {} (it does not hold that limit at its nodes)",
+            out.method.as_str(),
+            e.limit.describe(),
+            e.node,
+            e.excess,
+            e.limit.unit()
+        );
     }
 }
 

@@ -200,28 +200,33 @@ impl Row {
 /// The rows of a scenario's constraints, in a fixed order (cone, pitch
 /// rate, tilt, final descent; + before −). Empty for the paper's case.
 pub fn rows(s: &Scenario) -> Vec<Row> {
+    each_row(s).collect()
+}
+
+/// [`rows`] one by one, without allocating (for the flight loop's
+/// re-plans, issue 27).
+pub fn each_row(s: &Scenario) -> impl Iterator<Item = Row> {
     let c = &s.constraints;
     let pad = (s.terminal.x_m, s.terminal.z_m);
-    let mut shapes: Vec<(Limit, Shape)> = Vec::new();
-    if let Some(gamma) = c.cone_half_angle_deg {
-        shapes.push((
+    let cone = c.cone_half_angle_deg.map(|gamma| {
+        (
             Limit::Cone,
             Shape::Cone {
                 tan: gamma.to_radians().tan(),
             },
-        ));
-    }
-    if let Some(w) = c.max_pitch_rate_degps {
-        shapes.push((
+        )
+    });
+    let rate = c.max_pitch_rate_degps.map(|w| {
+        (
             Limit::PitchRate,
             Shape::Bound {
                 state: ix::W,
                 bound: w.to_radians(),
             },
-        ));
-    }
-    if let (Some(theta), Some(h)) = (c.max_tilt_deg, c.tilt_below_m) {
-        shapes.push((
+        )
+    });
+    let tilt = c.max_tilt_deg.zip(c.tilt_below_m).map(|(theta, h)| {
+        (
             Limit::Tilt,
             Shape::Triggered {
                 state: ix::THETA,
@@ -229,22 +234,26 @@ pub fn rows(s: &Scenario) -> Vec<Row> {
                 slope: TILT_OPENING_RAD_PER_M,
                 h_m: h,
             },
-        ));
-    }
-    if let (Some(h), Some(v)) = (c.final_descent_m, c.final_descent_lateral_mps) {
-        shapes.push((
-            Limit::FinalDescent,
-            Shape::Triggered {
-                state: ix::VX,
-                bound: v,
-                slope: LATERAL_OPENING_PER_S,
-                h_m: h,
-            },
-        ));
-    }
-    shapes
+        )
+    });
+    let descent = c
+        .final_descent_m
+        .zip(c.final_descent_lateral_mps)
+        .map(|(h, v)| {
+            (
+                Limit::FinalDescent,
+                Shape::Triggered {
+                    state: ix::VX,
+                    bound: v,
+                    slope: LATERAL_OPENING_PER_S,
+                    h_m: h,
+                },
+            )
+        });
+    [cone, rate, tilt, descent]
         .into_iter()
-        .flat_map(|(limit, shape)| {
+        .flatten()
+        .flat_map(move |(limit, shape)| {
             [1.0, -1.0].map(|sign| Row {
                 limit,
                 sign,
@@ -252,7 +261,43 @@ pub fn rows(s: &Scenario) -> Vec<Row> {
                 pad,
             })
         })
-        .collect()
+}
+
+/// A row broken at a node of a collocation answer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeExcess {
+    pub limit: Limit,
+    /// The node's index (0 … N).
+    pub node: usize,
+    /// g at the node, in the row's unit ([`Limit::unit`]).
+    pub excess: f64,
+}
+
+/// The worst row of `s` at the node states `x` (physical, a
+/// trajectory's `x`) that exceeds its limit by
+/// more than `relative` of its scale ([`Row::scale`]), or None: the check
+/// of a raw answer from a method that does not hold every row at its
+/// nodes (the direct method and the cone). Allocates nothing.
+pub fn worst_at_nodes<Y: AsRef<[f64]>>(s: &Scenario, x: &[Y], relative: f64) -> Option<NodeExcess> {
+    let mut worst: Option<(f64, NodeExcess)> = None;
+    for row in each_row(s) {
+        for (node, y) in x.iter().enumerate() {
+            let excess = row.value(y.as_ref());
+            let over = excess / row.scale() - relative;
+            if over > 0.0 && worst.is_none_or(|(w, _)| over > w) {
+                let limit = row.limit;
+                worst = Some((
+                    over,
+                    NodeExcess {
+                        limit,
+                        node,
+                        excess,
+                    },
+                ));
+            }
+        }
+    }
+    worst.map(|(_, e)| e)
 }
 
 /// The worst row of a state: (row index, g), or None without rows.
