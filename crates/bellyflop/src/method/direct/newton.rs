@@ -92,6 +92,9 @@ pub(super) struct Workspace {
     pub(super) dzl: Vec<f64>,
     pub(super) dzu: Vec<f64>,
     pub(super) c_soc: Vec<f64>,
+    /// The storage of [`Newton::rows`] and [`Newton::dzr`] between solves.
+    rows: NodeRows,
+    dzr: Vec<f64>,
 }
 
 impl Workspace {
@@ -127,6 +130,12 @@ impl Workspace {
             dzl: vec![0.0; nv],
             dzu: vec![0.0; nv],
             c_soc: vec![0.0; nc],
+            rows: {
+                let mut rows = NodeRows::default();
+                rows.refill(nlp);
+                rows
+            },
+            dzr: vec![0.0; nlp.limits.len() * nlp.n],
         }
     }
 }
@@ -184,21 +193,27 @@ pub(super) struct Newton<'a> {
 impl<'a> Newton<'a> {
     /// The system of `nlp` in `ws` and `bounds` (made or refilled for
     /// `nlp`).
-    pub(super) fn with_parts(nlp: &'a Nlp, ws: Workspace, bounds: Bounds) -> Self {
+    pub(super) fn with_parts(nlp: &'a Nlp, mut ws: Workspace, bounds: Bounds) -> Self {
         let nv = nlp.n_var();
-        let rows = NodeRows::new(nlp);
+        let mut rows = std::mem::take(&mut ws.rows);
+        rows.refill(nlp);
+        let mut dzr = std::mem::take(&mut ws.dzr);
+        dzr.clear();
+        dzr.resize(rows.len(), 0.0);
         Newton {
             nlp,
             ws,
             bounds,
-            dzr: vec![0.0; rows.len()],
+            dzr,
             rows,
             n_primal: (0..nv).filter(|&j| !nlp.is_fixed(j)).count(),
         }
     }
 
     /// Its workspace and bounds, for the next solve of the same structure.
-    pub(super) fn into_parts(self) -> (Workspace, Bounds) {
+    pub(super) fn into_parts(mut self) -> (Workspace, Bounds) {
+        self.ws.rows = self.rows;
+        self.ws.dzr = self.dzr;
         (self.ws, self.bounds)
     }
 

@@ -226,10 +226,12 @@ impl Nlp {
         }
         self.max_pitch_rate_radps = s.constraints.max_pitch_rate_degps.map(f64::to_radians);
         // The rows it holds at its nodes ([`crate::method::direct::rows`]).
-        self.limits = crate::problem::constraints::rows(s)
-            .into_iter()
-            .filter(|r| matches!(r.limit, Limit::Tilt | Limit::FinalDescent))
-            .collect();
+        // In place: a re-plan's update allocates nothing (issue 27).
+        self.limits.clear();
+        self.limits.extend(
+            crate::problem::constraints::each_row(s)
+                .filter(|r| matches!(r.limit, Limit::Tilt | Limit::FinalDescent)),
+        );
         self.set_bounds(t.z_m);
     }
 

@@ -24,6 +24,7 @@ const PUSH: f64 = 0.02;
 
 /// The rows at the free nodes 1 … N−1, their values and derivatives at the
 /// last evaluated point.
+#[derive(Default)]
 pub(super) struct NodeRows {
     rows: Vec<Row>,
     /// Nodes holding rows.
@@ -36,21 +37,23 @@ pub(super) struct NodeRows {
 }
 
 impl NodeRows {
-    pub(super) fn new(nlp: &Nlp) -> Self {
-        let rows = nlp.limits.clone();
-        let nodes: Vec<usize> = if rows.is_empty() {
-            Vec::new()
-        } else {
-            (1..nlp.n).collect()
-        };
-        let m = rows.len() * nodes.len();
-        NodeRows {
-            rows,
-            nodes,
-            value: vec![0.0; m],
-            grad: vec![[0.0; NL]; m],
-            d2: vec![0.0; m],
+    /// The rows of `nlp` at its free nodes, in this storage (which grows
+    /// only when the rows or nodes outnumber any earlier solve's, so that a
+    /// flight loop's re-plans allocate nothing: issue 27).
+    pub(super) fn refill(&mut self, nlp: &Nlp) {
+        self.rows.clear();
+        self.rows.extend_from_slice(&nlp.limits);
+        self.nodes.clear();
+        if !self.rows.is_empty() {
+            self.nodes.extend(1..nlp.n);
         }
+        let m = self.rows.len() * self.nodes.len();
+        self.value.clear();
+        self.value.resize(m, 0.0);
+        self.grad.clear();
+        self.grad.resize(m, [0.0; NL]);
+        self.d2.clear();
+        self.d2.resize(m, 0.0);
     }
 
     pub(super) fn len(&self) -> usize {
