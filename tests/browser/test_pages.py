@@ -5,7 +5,9 @@ times by script, and the vehicle drawn there (its centre of mass, pitch,
 length and nose) is checked against the trajectory the CLI wrote
 (trajectory.csv for a solve, flight.csv for a flight), read here on its
 own. The campaign's dots are clicked and checked against runs.csv, and the
-command the page prints flies the same run again. Screenshots go to
+command the page prints flies the same run again. A scenario with a
+[constraints] table draws its approach cone, trigger heights and bounds;
+the paper's case draws none of them. Screenshots go to
 $BELLYFLOP_SCREENSHOTS (scripts/screenshots sets it to docs/) or to the
 test's temporary directory.
 """
@@ -239,3 +241,92 @@ def test_python_page_is_the_solve_viewer(out, browser, tmp_path):
     traj = columns(out / "solve" / "trajectory.csv")
     check_plume_scales_with_thrust([check_vehicle_at(browser, traj, t) for t in three_times(traj)])
     assert browser.errors() == []
+
+
+# Every limit of the [constraints] table, at `bellyflop init`'s values.
+CONSTRAINTS = {"cone_half_angle_deg": 30.0, "max_pitch_rate_degps": 30.0, "max_tilt_deg": 10.0,
+               "tilt_below_m": 50.0, "final_descent_m": 20.0, "final_descent_lateral_mps": 2.0}
+
+
+@pytest.fixture(scope="module")
+def constrained(tmp_path_factory):
+    """The paper's scenario as `bellyflop init` writes it, with a [constraints]
+    table added, solved with --out: (scenario, output directory)."""
+    d = tmp_path_factory.mktemp("constrained")
+    text = cli("init") + "\n[constraints]\n" + "".join(f"{k} = {v!r}\n" for k, v in CONSTRAINTS.items())
+    (d / "scenario.toml").write_text(text)
+    scenario = tomllib.loads(text)
+    assert scenario["constraints"] == CONSTRAINTS
+    cli("solve", "--quiet", "--scenario", str(d / "scenario.toml"), "--out", str(d / "solve"))
+    return scenario, d / "solve"
+
+
+LIMITS = """(() => {
+  const scene = document.getElementById('scene'), v = a => a.baseVal.value;
+  const curves = k => [...document.querySelectorAll(`svg.chart[data-key=${k}] polyline.limit`)]
+    .map(p => ({sign: Number(p.dataset.sign), points: [...p.points].map(q => [q.x, q.y])}));
+  return {
+    cone: [...scene.querySelectorAll('line.cone')].map(e => [v(e.x1), v(e.y1), v(e.x2), v(e.y2)]),
+    triggers: Object.fromEntries([...scene.querySelectorAll('line.trigger')].map(e => [e.dataset.limit, v(e.y1)])),
+    labels: [...scene.querySelectorAll('text.limit-label')].map(e => e.textContent),
+    charts: Object.fromEntries(['theta_rad', 'pitch_rate_radps', 'vx_mps'].map(k => [k, curves(k)])),
+    summary: document.getElementById('limits') && document.getElementById('limits').textContent,
+    drawn: document.querySelectorAll('.limit, .limit-label, #limits, clipPath').length,
+    scale: Number(scene.dataset.scale), ox: Number(scene.dataset.ox), oy: Number(scene.dataset.oy)};
+})()"""
+
+
+def test_solve_viewer_draws_the_cone_and_the_limits(constrained, browser):
+    scenario, out = constrained
+    open_page(browser, out / "viewer.html")
+    d = browser.eval(LIMITS)
+    s, ox, oy = d["scale"], d["ox"], d["oy"]
+    pad = (ox + s * scenario["terminal"]["x_m"], oy - s * scenario["terminal"]["z_m"])
+    # The cone: two edges from the pad, one each side, at tan γ from the vertical.
+    tan = math.tan(math.radians(CONSTRAINTS["cone_half_angle_deg"]))
+    assert len(d["cone"]) == 2
+    sides = []
+    for x1, y1, x2, y2 in d["cone"]:
+        assert math.dist((x1, y1), pad) < PX
+        assert y2 < y1 - 100, "the edge rises from the pad"
+        assert abs(abs(x2 - x1) / (y1 - y2) - tan) < 1e-6
+        sides.append(math.copysign(1, x2 - x1))
+    assert sorted(sides) == [-1, 1]
+    # A dashed line at each trigger height above the pad, labelled.
+    heights = {"tilt": CONSTRAINTS["tilt_below_m"], "final_descent": CONSTRAINTS["final_descent_m"]}
+    assert d["triggers"].keys() == heights.keys()
+    for k, h in heights.items():
+        assert abs(d["triggers"][k] - (pad[1] - s * h)) < PX, k
+        assert any("below %.1f m" % h in t for t in d["labels"]), d["labels"]
+    # ±bound on θ, w and Vx: mirror images about 0; w's is constant, the
+    # triggered ones are the limit well below their height and open above it.
+    traj = columns(out / "trajectory.csv")
+    z_f = scenario["terminal"]["z_m"]
+    for key, h in [("pitch_rate_radps", None), ("theta_rad", heights["tilt"]), ("vx_mps", heights["final_descent"])]:
+        curves = sorted(d["charts"][key], key=lambda c: -c["sign"])
+        assert [c["sign"] for c in curves] == [1, -1], key
+        up, down = curves[0]["points"], curves[1]["points"]
+        assert len(up) == len(down) == len(traj["t_s"]), key
+        middle = [(a[1] + b[1]) / 2 for a, b in zip(up, down)]
+        assert max(middle) - min(middle) < 0.02, key  # points in 0.01 px
+        base = up[-1][1]
+        below = [p[1] for p, z in zip(up, traj["z_m"]) if h is None or z - z_f < h - 10]
+        above = [p[1] for p, z in zip(up, traj["z_m"]) if h is not None and z - z_f > h + 10]
+        assert below and all(abs(y - base) < 0.05 for y in below), key
+        assert h is None or (above and all(y < base - 5 for y in above)), key
+    # The summary: each limit with its worst margin from solution.json's path.limits.
+    limits = json.loads((out / "solution.json").read_text())["path"]["limits"]
+    assert len(limits) == 4
+    to_deg = {"pitch_rate": math.degrees, "tilt": math.degrees}
+    for r in limits:
+        margin = to_deg.get(r["limit"], float)(-r["worst"])
+        assert "worst margin %.2f" % margin in d["summary"], (r, d["summary"])
+    assert d["summary"].count("worst margin") == 4
+    assert browser.errors() == []
+
+
+def test_paper_case_draws_no_limit(out, browser):
+    open_page(browser, out / "solve" / "viewer.html")
+    d = browser.eval(LIMITS)
+    assert d["drawn"] == 0 and d["summary"] is None and d["cone"] == [] and d["triggers"] == {}
+    assert all(c == [] for c in d["charts"].values())

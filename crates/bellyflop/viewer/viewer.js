@@ -102,6 +102,28 @@
       function (v) { return self.Y(v); }) }, this.svg);
   };
 
+  // The operational limits (data.constraints): the approach cone's two
+  // edges from the pad up to the scene's top, and a dashed line at each
+  // trigger height above the pad, labelled.
+  Scene.prototype.drawLimits = function (lim) {
+    var w = Number(this.svg.getAttribute('width')), zTop = this.oy / this.s;
+    var px = lim.pad_x_m, pz = lim.pad_z_m, self = this;
+    if (lim.cone && zTop > pz) {
+      [-1, 1].forEach(function (side) {
+        el('line', { class: 'limit cone', 'data-side': side, x1: self.X(px), y1: self.Y(pz),
+          x2: self.X(px + side * lim.cone.tan * (zTop - pz)), y2: self.Y(zTop) }, self.svg);
+      });
+    }
+    [['tilt', 'start', 4], ['final_descent', 'end', w - 4]].forEach(function (k) {
+      var o = lim[k[0]];
+      if (!o) { return; }
+      var y = self.Y(pz + o.below_m);
+      el('line', { class: 'limit trigger', 'data-limit': k[0], x1: 0, x2: w, y1: y, y2: y }, self.svg);
+      el('text', { class: 'limit-label', 'data-limit': k[0], x: k[2], y: y - 3, 'text-anchor': k[1] }, self.svg,
+        limitText(k[0], o));
+    });
+  };
+
   // The vehicle in its own frame, in px: the centre of mass at the origin,
   // the nose up (−y); the group is turned by −θ, the nozzle by −δ.
   Scene.prototype.drawVehicle = function () {
@@ -145,6 +167,11 @@
     this.svg = el('svg', { width: w, height: h, class: 'chart', 'data-key': spec.key }, parent);
     var arrays = spec.series.map(function (s) { return s.y; });
     (spec.bounds || []).forEach(function (bd) { arrays.push([bd.value]); });
+    // An operational limit: ±its bound below any trigger (its least value).
+    if (spec.limit) {
+      var least = extent([spec.limit.bound])[0];
+      arrays.push([least, -least]);
+    }
     if (spec.nodes) { arrays.push(spec.nodes.y); }
     var ey = extent(arrays), pad = 0.06 * (ey[1] - ey[0]);
     ey = [ey[0] - pad, ey[1] + pad];
@@ -180,6 +207,7 @@
     this.boundLines = (spec.bounds || []).map(function (bd) {
       return el('line', { class: 'bound', x1: l, x2: w - 14, y1: self.fy(bd.value), y2: self.fy(bd.value) }, self.svg);
     });
+    if (spec.limit) { this.limitCurves(spec.limit, w, l); }
     spec.series.forEach(function (s) {
       el('polyline', { class: s.cls, points: points(s.t, s.y, self.fx, self.fy) }, self.svg);
     });
@@ -189,6 +217,19 @@
       });
     }
     this.cursor = el('line', { class: 'cursor', y1: this.top, y2: h - b }, this.svg);
+  };
+
+  // ±B(t) of an operational limit, clipped to the plot: a trigger's bound
+  // leaves it upwards as the limit opens above its height.
+  Chart.prototype.limitCurves = function (limit, w, l) {
+    var self = this, id = 'clip-' + this.spec.key;
+    var clip = el('clipPath', { id: id }, el('defs', {}, this.svg));
+    el('rect', { x: l, y: this.top, width: w - 14 - l, height: this.h - this.top - this.b }, clip);
+    [1, -1].forEach(function (sign) {
+      var ys = limit.bound.map(function (v) { return v === null ? null : sign * v; });
+      el('polyline', { class: 'limit', 'data-limit': limit.name, 'data-sign': sign, 'clip-path': 'url(#' + id + ')',
+        points: points(limit.t, ys, self.fx, self.fy) }, self.svg);
+    });
   };
 
   function tick(v) {
@@ -295,6 +336,35 @@
     return bands;
   }
 
+  // An operational limit as a phrase, from its data.constraints entry.
+  function limitText(key, o) {
+    if (key === 'cone') { return 'approach cone ' + fmt(o.half_angle_deg, 1) + '° from the vertical'; }
+    if (key === 'pitch_rate') { return '|w| ≤ ' + fmt(o.max_degps, 1) + '°/s'; }
+    if (key === 'tilt') { return '|θ| ≤ ' + fmt(o.max_deg, 1) + '° below ' + fmt(o.below_m, 1) + ' m'; }
+    return '|Vx| ≤ ' + fmt(o.max_lateral_mps, 2) + ' m/s below ' + fmt(o.below_m, 1) + ' m';
+  }
+
+  // One line: each limit and its worst margin along the flight (≥ 0: held;
+  // broken only beyond the path check's tolerance).
+  function limitSummary(parent, lim) {
+    var parts = ['cone', 'pitch_rate', 'tilt', 'final_descent'].filter(function (k) { return lim[k]; }).map(function (k) {
+      var o = lim[k], w = o.worst;
+      var m = w ? 'worst margin ' + fmt(w.margin, 2) + ' ' + w.unit + ' at t = ' + fmt(w.t_s, 2) + ' s' +
+        (w.held ? '' : ' (broken)') : 'not measured';
+      return limitText(k, o) + ': ' + m;
+    });
+    html('div', { class: 'limits', id: 'limits' }, parent, 'limits along the flight: ' + parts.join('; '));
+  }
+
+  // The operational limit drawn on the chart of column key, if any.
+  function limitOn(lim, key) {
+    for (var k in (lim || {})) {
+      var o = lim[k];
+      if (o && o.column === key && o.bound) { return { name: k, t: lim.t_s, bound: o.bound }; }
+    }
+    return null;
+  }
+
   function kvTable(parent, rows) {
     var t = html('table', { class: 'kv' }, parent);
     rows.forEach(function (r) {
@@ -350,7 +420,8 @@
     var sol = data.plan.solution, dense = data.plan.dense, flown = data.flown;
     html('h1', {}, app, data.scenario.name + ': the flip and landing, N = ' + sol.nodes);
     var t0 = dense.t_s[0], t1 = dense.t_s[dense.t_s.length - 1];
-    var show = { cols: dense, plan: dense, flown: flown, nodes: sol, breaks: data.plan.breaks_s, marks: [] };
+    var show = { cols: dense, plan: dense, flown: flown, nodes: sol, breaks: data.plan.breaks_s, marks: [],
+      limits: data.constraints };
     var view = buildTimeView(app, data.scenario, show, t0, t1, [['#1f77b4', 'plan (LGR interpolants, nodes dotted)'],
       ['#ff7f0e', 'flown (re-integrated from the plan\'s controls)'], ['#d62728', 'bounds (thick: active)']]);
     if (flown) {
@@ -368,14 +439,16 @@
   // the curves drawn.
   function buildTimeView(app, sc, show, t0, t1, legendItems) {
     var bounds = boundsOf(sc);
-    var view = { t: t0, cols: show.cols, bounds: bounds, active: [] };
+    var view = { t: t0, cols: show.cols, bounds: bounds, active: [] }, lim = show.limits;
     view.player = new Player(app, t0, t1, function (t) { update(view, t); });
-    legend(app, legendItems);
+    legend(app, lim ? legendItems.concat([['#9467bd', 'operational limits (cone, trigger heights dashed, ±bounds)']]) : legendItems);
+    if (lim) { limitSummary(app, lim); }
     var layout = html('div', { class: 'layout' }, app);
     var left = html('div', { class: 'panel side' }, layout);
     var paths = [{ x: show.plan.x_m, z: show.plan.z_m }];
     if (show.flown) { paths.push({ x: show.flown.x_m, z: show.flown.z_m }); }
     view.scene = new Scene(left, paths, sc.vehicle, 400);
+    if (lim) { view.scene.drawLimits(lim); }
     (show.replanPaths || []).forEach(function (p) {
       if (p.x_m.length) { view.scene.path('replan-path ' + p.outcome, p.x_m, p.z_m); }
     });
@@ -408,7 +481,7 @@
     if (show.flown && show.flown[key]) { series.push({ cls: 'flown', t: show.flown.t_s, y: show.flown[key] }); }
     var nodes = show.nodes && show.nodes[key] ? { t: show.nodes.t_s, y: show.nodes[key] } : null;
     var t0 = show.cols.t_s[0], t1 = show.cols.t_s[show.cols.t_s.length - 1];
-    return { key: key, label: s[1], scale: s[2], series: series, nodes: nodes, bounds: bounds[key],
+    return { key: key, label: s[1], scale: s[2], series: series, nodes: nodes, bounds: bounds[key], limit: limitOn(show.limits, key),
       breaks: show.breaks, bands: bandsOf(show.breaks || [], t0, t1), marks: show.marks };
   }
 
@@ -461,7 +534,8 @@
     html('h1', {}, app, data.scenario.name + ': closed-loop flight, seed ' + f.seed + ', run ' + f.run + ': ' + f.outcome_name);
     var t0 = trace.t_s[0], t1 = trace.t_s[trace.t_s.length - 1];
     var marks = replanMarks(f.replans || []);
-    var show = { cols: trace, plan: trace, flown: plan, breaks: [], marks: marks, replanPaths: data.replan_paths, extraCharts: [
+    var show = { cols: trace, plan: trace, flown: plan, breaks: [], marks: marks, replanPaths: data.replan_paths,
+      limits: data.constraints, extraCharts: [
       { key: 'wind_mps', label: 'wind [m/s] (● re-plan estimate)', series: [{ cls: 'plan', t: trace.t_s, y: trace.wind_mps }],
         nodes: { t: marks.map(function (m) { return m.t; }), y: (f.replans || []).map(function (r) { return r.wind_estimate_mps; }) }, marks: marks },
       { key: 'solve_ms', label: 're-plan solve time [ms]', series: [],

@@ -6,6 +6,14 @@
 //! (`solve --out`, `sim --out`, `montecarlo --out`) and the Python package
 //! (`Solution.save_html`) build the same page; [`solve_data`],
 //! [`flight_data`] and [`campaign_data`] assemble that data.
+//!
+//! A scenario with operational constraints (`[constraints]`,
+//! [`crate::problem::constraints`]) adds a `constraints` object to a solve's
+//! or a flight's data: each limit's values, and for the pitch-rate, tilt and
+//! final-descent limits their bound B along the drawn track (for the
+//! altitude-triggered ones B(z(t)), opening above the trigger), so the page
+//! draws them without doing the math again. Without constraints the data
+//! has no such key and the page draws nothing new.
 
 use serde_json::{json, Map, Value};
 
@@ -13,8 +21,11 @@ use crate::collocation::interpolation::Interpolant;
 use crate::guidance::Flight;
 use crate::output::campaign::{RunRow, RUNS_CSV_COLUMNS};
 use crate::output::report;
-use crate::output::samples::{self, COLUMN_NAMES};
+use crate::output::samples::{self, Samples, COLUMN_NAMES};
+use crate::problem::constraints::{self, Limit};
 use crate::sim::verdict::TouchdownLimits;
+use crate::solution::LimitReport;
+use crate::verify::path::{limit_reports, LIMIT_TOLERANCE};
 use crate::verify::propagate::Propagation;
 use crate::{Scenario, Solution};
 
@@ -117,9 +128,8 @@ fn breaks_s(solution: &Solution) -> Vec<f64> {
 }
 
 /// A plan as the viewer draws it: its JSON (`json`, e.g. the `solve --json`
-/// object), its dense samples and inner mesh breaks.
-fn plan_json(scenario: &Scenario, solution: &Solution, json: &Value) -> Value {
-    let s = samples::of(scenario, solution, SAMPLES_PER_INTERVAL);
+/// object), its dense samples `s` and inner mesh breaks.
+fn plan_json(solution: &Solution, json: &Value, s: &Samples) -> Value {
     json!({
         "solution": json,
         "dense": columns_json(&COLUMN_NAMES, &s.columns),
@@ -128,7 +138,9 @@ fn plan_json(scenario: &Scenario, solution: &Solution, json: &Value) -> Value {
 }
 
 /// The data of a solve's page: `json` is the `solve --json` object,
-/// `propagation` the re-integration drawn as flown (if it succeeded).
+/// `propagation` the re-integration drawn as flown (if it succeeded). The
+/// scenario's limits, if any, are drawn along the plan's samples, each at
+/// its worst as the answer's `path.limits` has it.
 pub fn solve_data(
     scenario: &Scenario,
     solution: &Solution,
@@ -136,19 +148,108 @@ pub fn solve_data(
     propagation: Option<&Propagation>,
 ) -> Value {
     let flown = propagation.map(|p| columns_json(&COLUMN_NAMES, &propagation_columns(solution, p)));
-    json!({
+    let s = samples::of(scenario, solution, SAMPLES_PER_INTERVAL);
+    let mut data = json!({
         "kind": "solve",
         "scenario": scenario,
-        "plan": plan_json(scenario, solution, json),
+        "plan": plan_json(solution, json, &s),
         "flown": flown,
-    })
+    });
+    let reports = solution.path.as_ref().map_or(&[][..], |p| &p.limits[..]);
+    if let Some(c) = constraints_json(scenario, &s.columns, reports) {
+        data["constraints"] = c;
+    }
+    data
+}
+
+/// The states (x, z, Vx, Vz, θ, w, m) of a track whose columns are t, then
+/// [`COLUMN_NAMES`]' states in order (the dense samples and flight.csv).
+fn track_states(columns: &[Vec<f64>]) -> Vec<[f64; 7]> {
+    (0..columns[0].len())
+        .map(|k| std::array::from_fn(|i| columns[1 + i][k]))
+        .collect()
+}
+
+/// A value of a limit's rows in the unit the page shows: degrees for the
+/// tilt and the pitch rate.
+fn shown(limit: Limit, value: f64) -> (f64, &'static str) {
+    match limit {
+        Limit::Cone => (value, "m"),
+        Limit::PitchRate => (value.to_degrees(), "deg/s"),
+        Limit::Tilt => (value.to_degrees(), "deg"),
+        Limit::FinalDescent => (value, "m/s"),
+    }
+}
+
+/// The `constraints` object of a page's data (module docs), or None when
+/// the scenario has none. `columns` is the track drawn (t, then the
+/// states: the plan's samples, or a flight's trace); `reports` each limit
+/// at its worst (`path.limits`), given as `worst` {`margin` = −g in the
+/// shown unit, `unit`, `t_s`, `held`: g within `verify::path`'s tolerance}.
+///
+/// Keys: `pad_x_m`, `pad_z_m`, `t_s` (the track's times), then one object
+/// per limit switched on, named as in `path.limits`: `cone`
+/// {`half_angle_deg`, `tan`}; `pitch_rate` {`max_degps`}; `tilt`
+/// {`max_deg`, `below_m`}; `final_descent` {`max_lateral_mps`, `below_m`}.
+/// Each but the cone has `column` (the state it bounds, a key of the
+/// track) and `bound`, B at each of `t_s` in that column's unit:
+/// |column| ≤ B.
+fn constraints_json(
+    scenario: &Scenario,
+    columns: &[Vec<f64>],
+    reports: &[LimitReport],
+) -> Option<Value> {
+    let rows = constraints::rows(scenario);
+    if rows.is_empty() {
+        return None;
+    }
+    let c = &scenario.constraints;
+    let states = track_states(columns);
+    let mut out = json!({
+        "pad_x_m": scenario.terminal.x_m,
+        "pad_z_m": scenario.terminal.z_m,
+        "t_s": columns[0],
+    });
+    for row in rows.iter().filter(|r| r.sign > 0.0) {
+        let mut o = match row.limit {
+            Limit::Cone => {
+                let gamma_deg = c.cone_half_angle_deg.unwrap_or(f64::NAN);
+                json!({ "half_angle_deg": gamma_deg, "tan": gamma_deg.to_radians().tan() })
+            }
+            Limit::PitchRate => json!({ "max_degps": c.max_pitch_rate_degps }),
+            Limit::Tilt => json!({ "max_deg": c.max_tilt_deg, "below_m": c.tilt_below_m }),
+            Limit::FinalDescent => json!({
+                "max_lateral_mps": c.final_descent_lateral_mps,
+                "below_m": c.final_descent_m,
+            }),
+        };
+        if let Some((state, _)) = states.first().and_then(|y| row.own_and_limit(y)) {
+            let bound: Vec<Option<f64>> = states
+                .iter()
+                .map(|y| row.own_and_limit(y).map(|(_, b)| b))
+                .collect();
+            o["column"] = json!(COLUMN_NAMES[1 + state]);
+            o["bound"] = json!(bound);
+        }
+        if let Some(r) = reports.iter().find(|r| r.limit == row.limit) {
+            let (margin, unit) = shown(r.limit, -r.worst);
+            let held = r.worst <= LIMIT_TOLERANCE * r.scale;
+            o["worst"] = json!({ "margin": margin, "unit": unit, "t_s": r.t_s, "held": held });
+        }
+        let key = serde_json::to_value(row.limit).unwrap_or(Value::Null);
+        out[key.as_str().unwrap_or("limit")] = o;
+    }
+    Some(out)
 }
 
 /// The data of a flight's page: `json` is the `sim --json` object; the
 /// flight must have its trace recorded. Each re-plan's answer is drawn at
-/// its nodes (`replan_paths`, in the order of the JSON's `replans`).
+/// its nodes (`replan_paths`, in the order of the JSON's `replans`). The
+/// scenario's limits, if any, are drawn and measured along the trace.
 pub fn flight_data(scenario: &Scenario, flight: &Flight, json: &Value) -> Value {
     let trace = report::trace_columns(flight);
+    let first = &flight.first_plan;
+    let s = samples::of(scenario, first, SAMPLES_PER_INTERVAL);
     let replans: Vec<Value> = flight
         .replans
         .iter()
@@ -161,14 +262,21 @@ pub fn flight_data(scenario: &Scenario, flight: &Flight, json: &Value) -> Value 
             })
         })
         .collect();
-    json!({
+    let mut data = json!({
         "kind": "flight",
         "scenario": scenario,
-        "plan": plan_json(scenario, &flight.first_plan, &flight.first_plan.to_json()),
+        "plan": plan_json(first, &first.to_json(), &s),
         "replan_paths": replans,
         "flight": json,
         "trace": columns_json(&report::TRACE_COLUMNS, &trace),
-    })
+    });
+    // The limits along the flown trace, each at its worst there.
+    let rows = constraints::rows(scenario);
+    let reports = limit_reports(&rows, &trace[0], &track_states(&trace));
+    if let Some(c) = constraints_json(scenario, &trace, &reports) {
+        data["constraints"] = c;
+    }
+    data
 }
 
 /// The data of a campaign's page: its rows (as runs.csv's columns), the
@@ -200,6 +308,127 @@ pub fn campaign_data(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::scenario::Constraints;
+    use crate::problem::constraints::TRIGGER_WIDTH_M;
+    use crate::{SolverSettings, Status};
+
+    /// The straight-line guess of `scenario`, its path measured, and the
+    /// data of its solve page.
+    fn guess_data(scenario: &Scenario) -> (Solution, Value) {
+        let settings = SolverSettings::default();
+        let mut sol = crate::method::guess_answer(
+            scenario,
+            &settings,
+            Status::NotConverged,
+            String::new(),
+            0.0,
+        );
+        sol.path = crate::verify::path::measure(scenario, &sol).ok();
+        let data = solve_data(scenario, &sol, &sol.to_json(), None);
+        (sol, data)
+    }
+
+    /// With all four limits on, the solve data carries each: its values,
+    /// the cone's tan, a bound per sample (the trigger's: the limit below
+    /// its height, open above), and its worst margin from `path.limits`.
+    /// The paper's case carries none.
+    #[test]
+    fn a_constrained_solve_carries_its_limits_and_the_paper_none() {
+        let mut scenario = Scenario::paper();
+        let want = Constraints::recommended();
+        scenario.constraints = want.clone();
+        let (sol, data) = guess_data(&scenario);
+        let c = &data["constraints"];
+        let num = |v: &Value| v.as_f64().unwrap();
+        let gamma = want.cone_half_angle_deg.unwrap();
+        assert_eq!(num(&c["cone"]["half_angle_deg"]), gamma);
+        assert!((num(&c["cone"]["tan"]) - gamma.to_radians().tan()).abs() < 1e-15);
+        assert_eq!(
+            num(&c["pitch_rate"]["max_degps"]),
+            want.max_pitch_rate_degps.unwrap()
+        );
+        assert_eq!(num(&c["tilt"]["max_deg"]), want.max_tilt_deg.unwrap());
+        assert_eq!(num(&c["tilt"]["below_m"]), want.tilt_below_m.unwrap());
+        let fd = &c["final_descent"];
+        assert_eq!(
+            num(&fd["max_lateral_mps"]),
+            want.final_descent_lateral_mps.unwrap()
+        );
+        assert_eq!(num(&fd["below_m"]), want.final_descent_m.unwrap());
+        assert!(c["cone"].get("bound").is_none());
+        let t = data["plan"]["dense"]["t_s"].as_array().unwrap();
+        assert_eq!(c["t_s"].as_array().unwrap(), t);
+        let z: Vec<f64> = data["plan"]["dense"]["z_m"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(num)
+            .collect();
+        let z_f = scenario.terminal.z_m;
+        for (key, column, limit, h) in [
+            (
+                "pitch_rate",
+                "pitch_rate_radps",
+                want.max_pitch_rate_degps.unwrap().to_radians(),
+                None,
+            ),
+            (
+                "tilt",
+                "theta_rad",
+                want.max_tilt_deg.unwrap().to_radians(),
+                want.tilt_below_m,
+            ),
+            (
+                "final_descent",
+                "vx_mps",
+                want.final_descent_lateral_mps.unwrap(),
+                want.final_descent_m,
+            ),
+        ] {
+            assert_eq!(c[key]["column"], column);
+            let bound: Vec<f64> = c[key]["bound"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(num)
+                .collect();
+            assert_eq!(bound.len(), t.len(), "{key}");
+            let (mut below, mut above) = (0, 0);
+            for (b, z) in bound.iter().zip(&z) {
+                let dz = z - z_f - h.unwrap_or(f64::INFINITY);
+                if dz < -10.0 * TRIGGER_WIDTH_M {
+                    assert!((b - limit).abs() < 1e-3 * limit, "{key} at z = {z}: {b}");
+                    below += 1;
+                } else if dz > 10.0 * TRIGGER_WIDTH_M {
+                    assert!(*b > limit * 1.5, "{key} at z = {z}: {b}");
+                    above += 1;
+                }
+            }
+            assert!(
+                below > 0 && (h.is_none() || above > 0),
+                "{key}: {below} below, {above} above"
+            );
+        }
+        let limits = &sol.path.as_ref().expect("the guess flies").limits;
+        assert_eq!(limits.len(), 4);
+        for r in limits {
+            let key = serde_json::to_value(r.limit).unwrap();
+            let w = &c[key.as_str().unwrap()]["worst"];
+            assert_eq!(num(&w["t_s"]), r.t_s);
+            assert!((num(&w["margin"]) - shown(r.limit, -r.worst).0).abs() < 1e-12);
+            assert_eq!(w["held"], r.worst <= LIMIT_TOLERANCE * r.scale);
+        }
+        assert_eq!(
+            num(&c["pitch_rate"]["worst"]["margin"]),
+            -limits[1].worst.to_degrees()
+        );
+
+        let (_, paper) = guess_data(&Scenario::paper());
+        assert!(paper.get("constraints").is_none());
+        assert!(!html(&paper.to_string())
+            .unwrap()
+            .contains("\"constraints\""));
+    }
 
     #[test]
     fn bad_data_is_a_typed_error() {

@@ -154,8 +154,9 @@ pub fn measure(scenario: &Scenario, sol: &Solution) -> Result<PathReport, Integr
     })
 }
 
-/// Each limit's worst row value along a track (module docs).
-fn limit_reports(rows: &[Row], t_s: &[f64], states: &[[f64; 7]]) -> Vec<LimitReport> {
+/// Each limit's worst row value along a track of states at times `t_s`,
+/// at each state and at 1/4, 1/2 and 3/4 between two (module docs).
+pub fn limit_reports(rows: &[Row], t_s: &[f64], states: &[[f64; 7]]) -> Vec<LimitReport> {
     let mut out: Vec<LimitReport> = Vec::new();
     let mut visit = |t: f64, y: &[f64; 7]| {
         for r in rows {
