@@ -175,8 +175,8 @@ fn track_states(columns: &[Vec<f64>]) -> Vec<[f64; 7]> {
 fn shown(limit: Limit, value: f64) -> (f64, &'static str) {
     match limit {
         Limit::Cone => (value, "m"),
-        Limit::PitchRate => (value.to_degrees(), "deg/s"),
-        Limit::Tilt => (value.to_degrees(), "deg"),
+        Limit::PitchRate => (value.to_degrees(), "°/s"),
+        Limit::Tilt => (value.to_degrees(), "°"),
         Limit::FinalDescent => (value, "m/s"),
     }
 }
