@@ -219,6 +219,29 @@ pub struct Optimality {
     pub multipliers: [f64; 6],
     /// The largest multiplier of its path rows.
     pub path_multiplier: f64,
+    /// S_T and S_δ sampled along the flight. Only the published
+    /// certificate carries them (JSON `optimality.switching`); the
+    /// certificates of the structures the polish flew and set aside do not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub switching: Option<SwitchingSamples>,
+}
+
+/// The switching functions of a polished answer at the start of every RK4
+/// step of its shot and at t_f ([`crate::polish::adjoint`]), each divided
+/// by its own largest |·| over the flight (its scale, given).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct SwitchingSamples {
+    /// The samples' times \[s\], from 0 to t_f.
+    pub t_s: Vec<f64>,
+    /// S_T = ∂H/∂T over `thrust_scale`. The minimum principle wants
+    /// T = T_max where S_T < 0 and T = T_min where S_T > 0.
+    pub thrust: Vec<f64>,
+    /// S_δ = ∂H/∂δ over `delta_scale` (λ̇_δ = −S_δ).
+    pub delta: Vec<f64>,
+    /// The flight's largest |S_T| (as [`Optimality::switching_scale`]).
+    pub thrust_scale: f64,
+    /// The flight's largest |S_δ| (per radian, scaled by the mass scale).
+    pub delta_scale: f64,
 }
 
 /// The iterations of a solve, in order: SCvx's or the direct method's (a

@@ -15,11 +15,15 @@
 //! The costates leave out the multipliers of the path rows (the ground,
 //! the dry mass): where those are active the certificate is not
 //! evaluated, and says so.
+//!
+//! The published certificate also carries S_T = ∂H/∂T and S_δ = ∂H/∂δ
+//! themselves, sampled along the flight, each scaled by its own largest
+//! |·| ([`samples`]), for the viewer to draw.
 
 use crate::polish::adjoint::Switching;
 use crate::polish::arcs::ArcKind;
 use crate::polish::shooting::Layout;
-use crate::solution::{Optimality, ThrustArc, ThrustArcKind};
+use crate::solution::{Optimality, SwitchingSamples, ThrustArc, ThrustArcKind};
 
 /// A bound arc's S_T may have the wrong sign by this fraction of the
 /// flight's largest |S_T| (the polish stops at 0.05 kg of predicted gain,
@@ -82,5 +86,85 @@ pub fn certify(
         thrust_arcs: arcs,
         multipliers: [0.0; 6],
         path_multiplier: 0.0,
+        // The published answer's only ([`samples`]).
+        switching: None,
+    }
+}
+
+/// The samples of `sw` as the JSON gives them: S_T and S_δ each divided by
+/// its largest |·| over the flight (0 where that is 0). Takes `sw`, and
+/// scales its arrays in place: the published answer's switching functions
+/// are not needed after.
+pub fn samples(sw: Switching) -> SwitchingSamples {
+    let Switching {
+        t_s,
+        mut thrust,
+        mut delta,
+        ..
+    } = sw;
+    let thrust_scale = scale_in_place(&mut thrust);
+    let delta_scale = scale_in_place(&mut delta);
+    SwitchingSamples {
+        t_s,
+        thrust,
+        delta,
+        thrust_scale,
+        delta_scale,
+    }
+}
+
+/// Divide `v` by its largest |·|, which it returns (left as it is where
+/// that is 0).
+fn scale_in_place(v: &mut [f64]) -> f64 {
+    let scale = v.iter().map(|x| x.abs()).fold(0.0, f64::max);
+    if scale > 0.0 {
+        v.iter_mut().for_each(|x| *x /= scale);
+    }
+    scale
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::scenario::Scenario;
+    use crate::input::settings::SolverSettings;
+    use crate::method::observer::Silent;
+
+    /// The paper's case, polished: its samples line up, run from 0 to t_f,
+    /// are scaled to a largest |S_T| of 1, and S_T has the sign the
+    /// minimum principle wants inside every bound arc.
+    #[test]
+    fn the_published_samples_keep_the_sign_rule() {
+        let sol = crate::solve(&Scenario::paper(), &SolverSettings::default(), &mut Silent);
+        let o = sol.optimality.expect("the paper's case is polished");
+        let sw = o
+            .switching
+            .expect("the published certificate has its samples");
+        let n = sw.t_s.len();
+        assert!(n > 100, "{n} samples");
+        assert_eq!(sw.thrust.len(), n);
+        assert_eq!(sw.delta.len(), n);
+        assert_eq!(sw.t_s[0], 0.0);
+        assert!((sw.t_s[n - 1] - sol.tf_s).abs() <= 1e-9 * sol.tf_s);
+        assert!(sw.t_s.windows(2).all(|w| w[1] > w[0]), "t_s increases");
+        let largest = |v: &[f64]| v.iter().map(|x| x.abs()).fold(0.0, f64::max);
+        assert_eq!(largest(&sw.thrust), 1.0);
+        assert_eq!(largest(&sw.delta), 1.0);
+        assert_eq!(sw.thrust_scale, o.switching_scale);
+        assert!(sw.delta_scale > 0.0);
+        let mut judged = 0;
+        for a in &o.thrust_arcs {
+            let inside = (0..n).filter(|&k| sw.t_s[k] > a.t_start_s && sw.t_s[k] < a.t_end_s);
+            for k in inside {
+                let s = sw.thrust[k];
+                match a.kind {
+                    ThrustArcKind::Upper => assert!(s <= TOLERANCE, "T_max at {}: {s}", sw.t_s[k]),
+                    ThrustArcKind::Lower => assert!(s >= -TOLERANCE, "T_min at {}: {s}", sw.t_s[k]),
+                    ThrustArcKind::Free => continue,
+                }
+                judged += 1;
+            }
+        }
+        assert!(judged > n / 2, "{judged} of {n} samples on bound arcs");
     }
 }

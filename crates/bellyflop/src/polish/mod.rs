@@ -306,10 +306,13 @@ pub fn polish(
         s.kept = true;
     }
     report.time_ms = clock.elapsed().as_secs_f64() * 1e3;
+    let mut optimality = best.optimality;
+    // Moved, not copied: the kept run's switching functions end here.
+    optimality.switching = Some(certificate::samples(best.switching));
     Ok(Polished {
         controls: flown(&best.problem.layout, &best.p),
         final_state: best.shot.y,
-        optimality: best.optimality,
+        optimality,
         report,
     })
 }
