@@ -7,9 +7,10 @@ length and nose) is checked against the trajectory the CLI wrote
 own. The campaign's dots are clicked and checked against runs.csv, and the
 command the page prints flies the same run again. A scenario with a
 [constraints] table draws its approach cone, trigger heights and bounds;
-the paper's case draws none of them. Screenshots go to
-$BELLYFLOP_SCREENSHOTS (scripts/screenshots sets it to docs/) or to the
-test's temporary directory.
+the paper's case draws none of them. A polished answer draws its switching
+functions S_T and S_δ under the T and δ charts; a raw one (--fast) does not.
+Screenshots go to $BELLYFLOP_SCREENSHOTS (scripts/screenshots sets it to
+docs/) or to the test's temporary directory.
 """
 
 import csv
@@ -330,3 +331,50 @@ def test_paper_case_draws_no_limit(out, browser):
     d = browser.eval(LIMITS)
     assert d["drawn"] == 0 and d["summary"] is None and d["cone"] == [] and d["triggers"] == {}
     assert all(c == [] for c in d["charts"].values())
+
+
+SWITCHING = """(() => {
+  const chart = k => document.querySelector(`svg.chart[data-key=${k}]`);
+  const box = (k, e) => { const a = chart(k).getBoundingClientRect(), b = chart(e).getBoundingClientRect();
+    return {left: a.left - b.left, below: a.top - b.bottom}; };
+  const one = k => chart(k) && {
+    points: [...chart(k).querySelectorAll('polyline.switching')].map(p => p.points.length),
+    zero: chart(k).querySelectorAll('line.zero').length,
+    arcs: [...chart(k).querySelectorAll('rect.arc')].map(r => r.getAttribute('class')),
+    title: chart(k).querySelector('.title').textContent};
+  return {thrust: one('switching_thrust'), delta: one('switching_delta'),
+    drawn: document.querySelectorAll('polyline.switching, rect.arc').length,
+    under_thrust: chart('switching_thrust') && box('switching_thrust', 'thrust_n'),
+    under_delta: chart('switching_delta') && box('switching_delta', 'delta_rad')};
+})()"""
+
+
+def test_solve_viewer_draws_the_switching_functions(out, browser):
+    """The polished paper page draws S_T under T, its thrust arcs shaded
+    behind, and S_δ under δ: one point per sample of optimality.switching."""
+    sol = json.loads((out / "solve" / "solution.json").read_text())
+    sw, arcs = sol["optimality"]["switching"], sol["optimality"]["thrust_arcs"]
+    n = len(sw["t_s"])
+    assert n > 100 and len(sw["thrust"]) == len(sw["delta"]) == n
+    open_page(browser, out / "solve" / "viewer.html")
+    d = browser.eval(SWITCHING)
+    assert d["thrust"]["points"] == [n] and d["delta"]["points"] == [n], d
+    assert d["thrust"]["zero"] == d["delta"]["zero"] == 1
+    assert d["thrust"]["arcs"] == ["arc " + a["kind"] for a in arcs] and d["delta"]["arcs"] == []
+    assert "∂H/∂T" in d["thrust"]["title"] and "∂H/∂δ" in d["delta"]["title"]
+    # Each in its chart's column, below it.
+    for k in ("under_thrust", "under_delta"):
+        assert abs(d[k]["left"]) < PX and d[k]["below"] >= 0, (k, d[k])
+    assert browser.errors() == []
+
+
+def test_raw_page_draws_no_switching_function(tmp_path, browser):
+    """An answer without the polish (--fast) has no certificate: no chart of it."""
+    r = subprocess.run([str(BIN), "solve", "--quiet", "--fast", "--out", str(tmp_path / "raw")],
+                       capture_output=True, text=True, timeout=600)
+    # The raw N = 20 answer misses the pad by metres: `inaccurate` (exit 9).
+    assert r.returncode in (0, 9), r.stderr
+    assert "optimality" not in json.loads((tmp_path / "raw" / "solution.json").read_text())
+    open_page(browser, tmp_path / "raw" / "viewer.html")
+    d = browser.eval(SWITCHING)
+    assert d["thrust"] is None and d["delta"] is None and d["drawn"] == 0, d

@@ -6,6 +6,7 @@
   'use strict';
   var NS = 'http://www.w3.org/2000/svg';
   var DEG = 180 / Math.PI;
+  var CHART_COLUMNS = 3; // .charts in viewer.css
 
   function el(tag, attrs, parent, text) {
     var e = document.createElementNS(NS, tag);
@@ -173,6 +174,7 @@
       arrays.push([least, -least]);
     }
     if (spec.nodes) { arrays.push(spec.nodes.y); }
+    if (spec.zero) { arrays.push([0]); }
     var ey = extent(arrays), pad = 0.06 * (ey[1] - ey[0]);
     ey = [ey[0] - pad, ey[1] + pad];
     this.fx = function (t) { return l + (w - l - r) * (t - t0) / (t1 - t0 || 1); };
@@ -189,6 +191,11 @@
           height: h - self.top - b }, self.svg);
       }
     });
+    (spec.shades || []).forEach(function (sh) {
+      el('rect', { class: sh.cls, x: self.fx(sh.t0), y: self.top, width: Math.max(0, self.fx(sh.t1) - self.fx(sh.t0)),
+        height: h - self.top - b }, self.svg).appendChild(el('title', {}, null, sh.title));
+    });
+    if (spec.zero) { el('line', { class: 'zero', x1: l, x2: w - 14, y1: self.fy(0), y2: self.fy(0) }, this.svg); }
     el('line', { class: 'axis', x1: l, x2: l, y1: this.top, y2: h - b }, this.svg);
     el('line', { class: 'axis', x1: l, x2: w - 14, y1: h - b, y2: h - b }, this.svg);
     el('text', { class: 'title', x: l, y: 12 }, this.svg, spec.label);
@@ -416,14 +423,39 @@
     });
   }
 
+  // The switching functions of a polished answer's certificate
+  // (optimality.switching), each over its largest |·|: S_T under the thrust
+  // chart with the thrust arcs behind it (the minimum principle wants S_T < 0
+  // on T_max, > 0 on T_min), S_δ under δ's. None for a raw answer.
+  function switchingCharts(o) {
+    var sw = o && o.switching;
+    if (!sw) { return []; }
+    var names = { upper: 'T = T_max', lower: 'T = T_min', free: 'T free (singular)' };
+    var arcs = (o.thrust_arcs || []).map(function (a) {
+      return { t0: a.t_start_s, t1: a.t_end_s, cls: 'arc ' + a.kind,
+        title: names[a.kind] + ', t = ' + fmt(a.t_start_s, 2) + '–' + fmt(a.t_end_s, 2) + ' s' };
+    });
+    return [
+      { key: 'switching_thrust', under: 'thrust_n', label: 'S_T = ∂H/∂T (÷ max |S_T|)', zero: true, shades: arcs,
+        series: [{ cls: 'switching', t: sw.t_s, y: sw.thrust }] },
+      { key: 'switching_delta', under: 'delta_rad', label: 'S_δ = ∂H/∂δ (÷ max |S_δ|)', zero: true,
+        series: [{ cls: 'switching', t: sw.t_s, y: sw.delta }] }
+    ];
+  }
+
   function solveView(app, data) {
     var sol = data.plan.solution, dense = data.plan.dense, flown = data.flown;
     html('h1', {}, app, data.scenario.name + ': the flip and landing, N = ' + sol.nodes);
     var t0 = dense.t_s[0], t1 = dense.t_s[dense.t_s.length - 1];
+    var extra = switchingCharts(sol.optimality);
     var show = { cols: dense, plan: dense, flown: flown, nodes: sol, breaks: data.plan.breaks_s, marks: [],
-      limits: data.constraints };
-    var view = buildTimeView(app, data.scenario, show, t0, t1, [['#1f77b4', 'plan (LGR interpolants, nodes dotted)'],
-      ['#ff7f0e', 'flown (re-integrated from the plan\'s controls)'], ['#d62728', 'bounds (thick: active)']]);
+      limits: data.constraints, extraCharts: extra };
+    var items = [['#1f77b4', 'plan (LGR interpolants, nodes dotted)'],
+      ['#ff7f0e', 'flown (re-integrated from the plan\'s controls)'], ['#d62728', 'bounds (thick: active)']];
+    if (extra.length) {
+      items.push(['#8c564b', 'switching functions S_T, S_δ (certificate; shaded: T_max arcs red, T_min blue)']);
+    }
+    var view = buildTimeView(app, data.scenario, show, t0, t1, items);
     if (flown) {
       var n = flown.t_s.length - 1;
       el('circle', { class: 'landing', id: 'flown-touchdown', cx: view.scene.X(flown.x_m[n]),
@@ -467,9 +499,21 @@
     view.charts = STATES.filter(function (s) { return show.plan[s[0]]; }).map(function (s) {
       return new Chart(charts, chartSpec(s, show, bounds), t0, t1);
     });
-    (show.extraCharts || []).forEach(function (spec) { view.charts.push(new Chart(charts, spec, t0, t1)); });
+    (show.extraCharts || []).forEach(function (spec) {
+      var chart = new Chart(charts, spec, t0, t1);
+      if (spec.under) { placeUnder(chart, view.charts, spec.under); }
+      view.charts.push(chart);
+    });
     view.charts.forEach(function (c) { clickToSeek(c, view.player, t0, t1); });
     return view;
+  }
+
+  // Put chart in the grid's column of the chart of key `under` (the state
+  // charts fill the grid in order, CHART_COLUMNS a row): the grid then puts
+  // it in the first free row below.
+  function placeUnder(chart, charts, under) {
+    var i = charts.findIndex(function (c) { return c.spec.key === under; });
+    if (i >= 0) { chart.svg.style.gridColumn = String(i % CHART_COLUMNS + 1); }
   }
 
   function chartSpec(s, show, bounds) {
