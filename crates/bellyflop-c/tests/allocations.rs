@@ -59,14 +59,13 @@ fn allocations_in(f: impl FnOnce()) -> usize {
 /// Allocations of a cold `bf_solve`, of each of 20 `bf_replan` calls from
 /// states along the plan, measured off it (a navigation error of
 /// decimetres and decimetres per second), and of a second cold `bf_solve`,
-/// on the paper's case, or on it with the `[constraints]` of `limits`
-/// (TOML) when given.
-fn counts(limits: Option<&str>) -> (usize, Vec<usize>, usize) {
+/// on the paper's case, or on `scenario` (given to the C API as its TOML).
+fn counts(scenario: Option<&bellyflop::input::scenario::Scenario>) -> (usize, Vec<usize>, usize) {
     let mut problem = std::ptr::null_mut();
-    match limits {
+    match scenario {
         None => assert_eq!(bf_problem_paper(&mut problem), bf_error::Ok),
-        Some(table) => {
-            let text = std::ffi::CString::new(format!("{}{table}", paper_toml())).unwrap();
+        Some(s) => {
+            let text = std::ffi::CString::new(toml::to_string(s).unwrap()).unwrap();
             assert_eq!(
                 bf_problem_from_toml_str(text.as_ptr(), &mut problem),
                 bf_error::Ok
@@ -120,36 +119,7 @@ fn counts(limits: Option<&str>) -> (usize, Vec<usize>, usize) {
 /// No allocation inside a solve or a re-plan once the solver is set up.
 #[test]
 fn solves_and_replans_after_setup_do_not_allocate() {
-    let (cold, replans, again) = counts(None);
-    println!("allocations: cold bf_solve {cold}; bf_replan {replans:?}; bf_solve again {again}");
-    assert_eq!(cold, 0, "the cold bf_solve allocated");
-    assert!(
-        replans.iter().all(|&a| a == 0),
-        "bf_replan allocated: {replans:?}"
-    );
-    assert_eq!(again, 0, "the second bf_solve allocated");
-}
-
-/// The paper's scenario as TOML: `bellyflop init`'s tables without the
-/// optional `[solver]` ones, from the library's own paper case.
-fn paper_toml() -> String {
-    let s = bellyflop::input::scenario::Scenario::paper();
-    let (v, e, i, t, d) = (
-        &s.vehicle,
-        &s.environment,
-        &s.initial,
-        &s.terminal,
-        &s.discretization,
-    );
-    format!(
-        "name = \"paper\"\n[vehicle]\ndry_mass_kg = {:?}\nlength_m = {:?}\nradius_m = {:?}\ncg_m = {:?}\ncp_m = {:?}\nmax_thrust_n = {:?}\nmin_thrust_n = {:?}\nisp_s = {:?}\nmax_gimbal_deg = {:?}\nmax_gimbal_rate_degps = {:?}\ndrag_coefficient_kgpm = {:?}\n[environment]\ng0_mps2 = {:?}\nwind_x_mps = {:?}\n[initial]\nx_m = {:?}\nz_m = {:?}\nvx_mps = {:?}\nvz_mps = {:?}\ntheta_deg = {:?}\npitch_rate_degps = {:?}\nmass_kg = {:?}\ngimbal_deg = {:?}\n[terminal]\nx_m = {:?}\nz_m = {:?}\nvx_mps = {:?}\nvz_mps = {:?}\ntheta_deg = {:?}\npitch_rate_degps = {:?}\n[discretization]\nnodes = {}\nintervals = {}\n",
-        v.dry_mass_kg, v.length_m, v.radius_m, v.cg_m, v.cp_m, v.max_thrust_n, v.min_thrust_n,
-        v.isp_s, v.max_gimbal_deg, v.max_gimbal_rate_degps, v.drag_coefficient_kgpm,
-        e.g0_mps2, e.wind_x_mps,
-        i.x_m, i.z_m, i.vx_mps, i.vz_mps, i.theta_deg, i.pitch_rate_degps, i.mass_kg, i.gimbal_deg,
-        t.x_m, t.z_m, t.vx_mps, t.vz_mps, t.theta_deg, t.pitch_rate_degps,
-        d.nodes, d.intervals,
-    )
+    assert_none("", counts(None));
 }
 
 /// The same with the limits that the direct method holds at its nodes
@@ -158,9 +128,23 @@ fn paper_toml() -> String {
 /// a constrained flight allocate nothing either.
 #[test]
 fn constrained_solves_and_replans_after_setup_do_not_allocate() {
-    let limits = "[constraints]\nmax_pitch_rate_degps = 20.0\nmax_tilt_deg = 10.0\ntilt_below_m = 50.0\nfinal_descent_m = 20.0\nfinal_descent_lateral_mps = 2.0\n";
-    let (cold, replans, again) = counts(Some(limits));
-    println!("allocations, with limits: cold bf_solve {cold}; bf_replan {replans:?}; bf_solve again {again}");
+    let mut scenario = bellyflop::input::scenario::Scenario::paper();
+    scenario.constraints = bellyflop::input::scenario::Constraints {
+        max_pitch_rate_degps: Some(20.0),
+        max_tilt_deg: Some(10.0),
+        tilt_below_m: Some(50.0),
+        final_descent_m: Some(20.0),
+        final_descent_lateral_mps: Some(2.0),
+        ..Default::default()
+    };
+    assert_none(", with limits", counts(Some(&scenario)));
+}
+
+/// Prints the counts of [`counts`] and asserts that each is 0.
+fn assert_none(label: &str, (cold, replans, again): (usize, Vec<usize>, usize)) {
+    println!(
+        "allocations{label}: cold bf_solve {cold}; bf_replan {replans:?}; bf_solve again {again}"
+    );
     assert_eq!(cold, 0, "the cold bf_solve allocated");
     assert!(
         replans.iter().all(|&a| a == 0),
