@@ -6,14 +6,12 @@ For each of the first 20 states of issue 15 (bench/envelope.py, seed 15) and
 each limit of bench/constraints.py (the `init` defaults, alone and all four),
 solves the raw N = 20 collocation (`bellyflop solve --fast`) and the
 reference, one after the other in the same run, and reports the final-mass
-difference (ours - IPOPT) and both solve times. The direct method holds the
-pitch-rate, tilt and final-descent limits at its nodes; the cone involves x,
-which its KKT solve eliminates, so the cone (and "all") is solved by SCvx
-(`--method scvx`), which holds every limit at its nodes. The limits hold at
-the free nodes in both (the reference's README).
+difference (ours - IPOPT) and both solve times. Ours is the direct method,
+which holds every limit at its nodes (`--method scvx` for SCvx). The limits
+hold at the free nodes in both (the reference's README).
 
     bench/reference/.venv/bin/python bench/constraints_vs_ipopt.py
-    bench/reference/.venv/bin/python bench/constraints_vs_ipopt.py --states 5 --table
+    bench/reference/.venv/bin/python bench/constraints_vs_ipopt.py --states 5 --table --limit cone
 """
 import argparse
 import json
@@ -49,14 +47,18 @@ def main():
     ap.add_argument("--seed", type=int, default=15)
     ap.add_argument("--bin", default=str(BIN))
     ap.add_argument("--table", action="store_true")
+    ap.add_argument("--method", default="direct", choices=["direct", "scvx"])
+    ap.add_argument("--limit", action="append", choices=list(LIMITS),
+                    help="only these limits (repeatable; default: every one)")
     args = ap.parse_args()
-    rows = {k: [] for k in LIMITS}
+    rows = {k: [] for k in LIMITS if not args.limit or k in args.limit}
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "state.toml"
         for name, state in states(args.states, 0, args.seed):
-            for limit, table in LIMITS.items():
+            for limit in rows:
+                table = LIMITS[limit]
                 path.write_text(with_limits(scenario_text(state, 20), table))
-                method = "scvx" if "cone_half_angle_deg" in table else "direct"
+                method = args.method
                 m, ms, st = ours(args.bin, path, method)
                 mi, msi, sti = ipopt(path)
                 rows[limit].append((name, method, m - mi, ms, msi, st, sti))

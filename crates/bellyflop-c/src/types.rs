@@ -37,10 +37,9 @@ pub enum bf_error {
 /// How a solve ended (the library's `Status`). A status is a claim: only
 /// `BF_STATUS_SOLVED` is a converged trajectory that meets the dynamics at
 /// its collocation nodes and the physical checks, and holds every limit of
-/// the problem's `[constraints]` at its nodes (the direct method holds the
-/// pitch-rate, tilt and final-descent limits; it does not hold the
-/// approach cone, so its answer outside the cone is
-/// `BF_STATUS_NON_PHYSICAL` and not adopted). A flight loop's calls do
+/// the problem's `[constraints]` at its nodes (both methods hold them
+/// there; an answer outside one would be `BF_STATUS_NON_PHYSICAL` and not
+/// adopted). A flight loop's calls do
 /// not re-integrate the controls between the nodes (that costs more than a
 /// re-plan): on the paper's case at N = 20 they miss the pad by 0.8 m when
 /// flown open loop, which the next re-plans correct in closed loop

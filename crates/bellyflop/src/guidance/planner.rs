@@ -258,9 +258,9 @@ impl Planner {
 }
 
 /// A method's `solved` answer, which the planner adopts, must hold every
-/// operational limit of the scenario at its nodes: the direct method does
-/// not hold the approach cone there (issue 37; its KKT solve eliminates x),
-/// so an answer outside the cone at a node after the first by more than the
+/// operational limit of the scenario at its nodes. Both methods hold them
+/// there (issue 37); this is the guard that no answer outside them is
+/// flown: one outside a limit at a node after the first by more than the
 /// path check's tolerance ([`LIMIT_TOLERANCE`] of the row's scale) is
 /// `non_physical`, with where, and the old plan stays. Allocates only on
 /// that failure.
@@ -327,5 +327,38 @@ pub fn initial_state(x: &[f64; NX]) -> InitialState {
         pitch_rate_degps: x[ix::W].to_degrees(),
         mass_kg: x[ix::OMEGA].exp(),
         gimbal_deg: x[ix::DELTA].to_degrees(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::method::observer::Silent;
+
+    /// The planner's last guard: a method's `solved` answer outside a limit
+    /// at a node after the first is `non_physical`, and says which limit
+    /// and where. Every method holds every limit at its nodes today, so
+    /// the answer here is one solved without the limit, checked against a
+    /// scenario with an 11° cone that it leaves.
+    #[test]
+    fn an_answer_outside_a_limit_at_a_node_is_not_physical() {
+        let direct = SolverSettings {
+            method: Method::Direct,
+            polish: false,
+            ..SolverSettings::default()
+        };
+        let mut sol = crate::solve(&Scenario::paper(), &direct, &mut Silent);
+        sol.status = Status::Solved;
+        let mut coned = Scenario::paper();
+        hold_limits_at_nodes(&coned, &mut sol);
+        assert_eq!(sol.status, Status::Solved, "no limit, nothing to break");
+        coned.constraints.cone_half_angle_deg = Some(11.0);
+        hold_limits_at_nodes(&coned, &mut sol);
+        assert_eq!(sol.status, Status::NonPhysical);
+        assert!(
+            sol.message.contains("the approach cone") && sol.message.contains("at node"),
+            "{}",
+            sol.message
+        );
     }
 }

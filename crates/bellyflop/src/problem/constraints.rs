@@ -190,6 +190,21 @@ impl Row {
         }
     }
 
+    /// For the cone: y moved strictly inside it, by the fraction `push` of
+    /// its half-width: |x − x_f| ≤ (1 − push)·tan γ·(z − z_f), with z raised
+    /// to at least `min_height_m` above the pad (the cone is empty at the
+    /// pad's height). None for the other rows ([`Self::own_and_limit`]).
+    pub fn inside_cone(&self, y: &[f64; 7], push: f64, min_height_m: f64) -> Option<[f64; 7]> {
+        let Shape::Cone { tan } = self.shape else {
+            return None;
+        };
+        let mut out = *y;
+        out[ix::Z] = y[ix::Z].max(self.pad.1 + min_height_m);
+        let half = (1.0 - push) * tan * (out[ix::Z] - self.pad.1);
+        out[ix::X] = self.pad.0 + (y[ix::X] - self.pad.0).clamp(-half, half);
+        Some(out)
+    }
+
     /// Whether the row involves only states that the transcription holds
     /// linearly (no trigger): its linearization is the row.
     pub fn is_affine(&self) -> bool {

@@ -230,7 +230,7 @@ impl Nlp {
         self.limits.clear();
         self.limits.extend(
             crate::problem::constraints::each_row(s)
-                .filter(|r| matches!(r.limit, Limit::Tilt | Limit::FinalDescent)),
+                .filter(|r| matches!(r.limit, Limit::Cone | Limit::Tilt | Limit::FinalDescent)),
         );
         self.set_bounds(t.z_m);
     }

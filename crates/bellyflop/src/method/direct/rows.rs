@@ -1,9 +1,9 @@
 //! The operational rows g(y) ≤ 0 that the direct method holds at its free
 //! nodes (issue 37, [`crate::problem::constraints`]): the tilt limit and
-//! the final descent. The pitch-rate limit is a simple bound on w
-//! ([`crate::method::direct::nlp`]); the cone involves x, whose rows of W
-//! the KKT solve eliminates exactly (they must stay zero), so it is not
-//! held here (the pipeline then turns to SCvx, [`crate::pipeline`]).
+//! the final descent, and the approach cone. The pitch-rate limit is a
+//! simple bound on w ([`crate::method::direct::nlp`]). The cone involves x,
+//! so with it the KKT solve keeps x in its node blocks instead of
+//! eliminating it ([`crate::method::direct::kkt::eliminates_x`]).
 //!
 //! Each row, over its scale (ĝ = g/scale, order one), enters the barrier
 //! problem without a slack, as the bounds do: −μ·ln(−ĝ) in φ_μ, a
@@ -21,6 +21,10 @@ use crate::problem::dynamics::ix;
 
 /// How far inside its limit a start's own state is put (relative).
 const PUSH: f64 = 0.02;
+
+/// The least height above the pad of a start's free node inside the cone
+/// \[m\] (the cone is empty at the pad's own height).
+const CONE_MIN_HEIGHT_M: f64 = 0.1;
 
 /// The rows at the free nodes 1 … N−1, their values and derivatives at the
 /// last evaluated point.
@@ -254,11 +258,20 @@ impl NodeRows {
     }
 
     /// Put each row's own state (θ or Vx) of w strictly inside its limit
-    /// at its node's z: |own| ≤ (1 − PUSH)·B(z).
+    /// at its node's z: |own| ≤ (1 − PUSH)·B(z); and each node's (x, z)
+    /// strictly inside the cone ([`Row::inside_cone`], z at least
+    /// [`CONE_MIN_HEIGHT_M`] above the pad). The cone first: it may raise
+    /// z, which the triggered rows' limits depend on.
     pub(super) fn push_inside(&self, nlp: &Nlp, w: &mut [f64]) {
         for &k in &self.nodes {
             for row in self.rows.iter().filter(|r| r.sign > 0.0) {
                 let y = Self::state(nlp, w, k);
+                if let Some(inside) = row.inside_cone(&y, PUSH, CONE_MIN_HEIGHT_M) {
+                    for s in [ix::X, ix::Z] {
+                        w[nlp.idx(k, s)] = (inside[s] - nlp.offset[s]) / nlp.scale[s];
+                    }
+                    continue;
+                }
                 let Some((own, limit)) = row.own_and_limit(&y) else {
                     continue;
                 };

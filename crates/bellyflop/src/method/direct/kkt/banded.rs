@@ -2,8 +2,9 @@
 //! factored block by block.
 //!
 //! Order R's kept multipliers interval by interval (state-major inside an
-//! interval: state c at the interval's point a is row (c − 1)·n_k + a), then
-//! ν and t̂_f. A defect of interval k touches only the n_k + 1 nodes of k, and
+//! interval: kept state c at the interval's point a is row (c − c0)·n_k + a),
+//! then ν and t̂_f. Below, r is the number of kept states per point, 7 (z … δ)
+//! when x is eliminated and 8 when the cone keeps it (c0 = 1 or 0). A defect of interval k touches only the n_k + 1 nodes of k, and
 //! the last of them is the first node s_{k+1} of interval k + 1, so
 //!
 //! ```text
@@ -14,9 +15,9 @@
 //!      [ F_0  F_1  F_2  …        Z    ]
 //! ```
 //!
-//! with A_k = −S over interval k (dense, 7·n_k square), F_k the rows of ν and
-//! t̂_f, and C_k the coupling through node s_{k+1} alone: of rank 7, with
-//! V_k = D_{·,s_{k+1}} ⊗ I₇ over k's rows and U_k[(a, c), c′] = −D_{a,s_{k+1}}
+//! with A_k = −S over interval k (dense, r·n_k square), F_k the rows of ν and
+//! t̂_f, and C_k the coupling through node s_{k+1} alone: of rank r, with
+//! V_k = D_{·,s_{k+1}} ⊗ I_r over k's rows and U_k[(a, c), c′] = −D_{a,s_{k+1}}
 //! Q_s(c, c′) − [a = s_{k+1}] R_s(c′, c) over k + 1's (Q = E M Eᵀ, R = E M Bᵀ,
 //! M = W_s⁻¹). Block elimination in interval order,
 //!
@@ -28,9 +29,9 @@
 //! is a congruence, so In(R) = Σ_k In(Â_k) + In(Ẑ) (Sylvester). Each Â_k is
 //! factored by the unpivoted LDLᵀ with the dense path's growth test; a block
 //! that fails it sends the whole of R back to the dense Bunch–Kaufman path.
-//! The rank-7 coupling makes each step one LDLᵀ of 7·n_k plus solves with
-//! 7 + 2 right-hand sides, so the cost is Σ_k (7 n_k)³/3 instead of
-//! (7N)³/3: on 8 intervals of 10 points, about 0.9 M multiply-adds against
+//! The rank-r coupling makes each step one LDLᵀ of r·n_k plus solves with
+//! r + 2 right-hand sides, so the cost is Σ_k (7 n_k)³/3 instead of
+//! (rN)³/3: with r = 7, on 8 intervals of 10 points, about 0.9 M multiply-adds against
 //! 59 M.
 
 use faer::linalg::matmul::matmul;
@@ -39,21 +40,22 @@ use faer::{Accum, MatMut, MatRef, Par};
 
 use super::{Block8, Inertia, Ldlt};
 use crate::collocation::mesh::Mesh;
-
-/// Kept states per collocation point (z, Vx, Vz, θ, ω, m, δ).
-const NR: usize = super::NR;
+use crate::method::direct::nlp::NS;
 
 /// What R is made of, from the node blocks (every array as in
-/// [`super::KktSolver`]): D (N × (N + 1), column-major), per node Q (M over
-/// the kept states, zero where a state is fixed), per point (R_k, T_k) by
-/// state slot, and ν's and t̂_f's rows state-major (g's entry N·7 is ν's).
+/// [`super::KktSolver`]): the first kept state c0 (R keeps states c0 … 7:
+/// z … δ, or x … δ where x is not eliminated), D (N × (N + 1),
+/// column-major), per node Q (M by state, zero where a state is fixed), per
+/// point (R_k, T_k) by state, ν's and t̂_f's rows state-major (g's entry
+/// N·nr is ν's) and ν's diagonal.
 pub(super) struct Terms<'a> {
+    pub c0: usize,
     pub d: &'a [f64],
-    pub q: &'a [[[f64; NR]; NR]],
+    pub q: &'a [Block8],
     pub cross: &'a [(Block8, Block8)],
     pub s_nu: &'a [f64],
     pub g: &'a [f64],
-    pub s_nunu: f64,
+    pub nu_diagonal: f64,
     pub a: f64,
     pub delta_c: f64,
 }
@@ -63,16 +65,16 @@ struct Block {
     /// The interval's first point and its number of points n_k.
     first: usize,
     points: usize,
-    /// Â_k (7n_k square, column-major): formed in its lower triangle, then
+    /// Â_k (r·n_k square, column-major): formed in its lower triangle, then
     /// its LDLᵀ factors.
     a: Vec<f64>,
-    /// F̂_kᵀ (7n_k × 2: ν's column, then t̂_f's).
+    /// F̂_kᵀ (r·n_k × 2: ν's column, then t̂_f's).
     ft: Vec<f64>,
     /// Â_k⁻¹ F̂_kᵀ.
     y: Vec<f64>,
-    /// Â_k⁻¹ V_k (7n_k × 7), when there is a next interval.
+    /// Â_k⁻¹ V_k (r·n_k × r), when there is a next interval.
     g: Vec<f64>,
-    /// U_k (7n_{k+1} × 7), when there is a next interval.
+    /// U_k (r·n_{k+1} × r), when there is a next interval.
     u: Vec<f64>,
     /// D's column of node s_{k+1} over this interval's points.
     v: Vec<f64>,
@@ -83,26 +85,29 @@ struct Block {
 /// The block-tridiagonal LDLᵀ of R with its border, and its storage.
 pub(super) struct Banded {
     n: usize,
+    /// Kept states per point (7, or 8 with x).
+    nr: usize,
     blocks: Vec<Block>,
     ldlt: Ldlt,
     /// Ẑ, and its inverse (2 × 2).
     z: [[f64; 2]; 2],
     z_inv: [[f64; 2]; 2],
-    /// Work space: P for the D ⊗ I products, 7n_max × (n_max + 1), and
-    /// U_k H_k, 7n_max × 7.
+    /// Work space: P for the D ⊗ I products, r·n_max × (n_max + 1), and
+    /// U_k H_k, r·n_max × r.
     p: Vec<f64>,
     uh: Vec<f64>,
 }
 
 impl Banded {
-    /// Storage for `mesh` (two or more intervals).
-    pub(super) fn new(mesh: &Mesh) -> Self {
+    /// Storage for `mesh` (two or more intervals), `nr` kept states per
+    /// point.
+    pub(super) fn new(mesh: &Mesh, nr: usize) -> Self {
         let ivs = &mesh.intervals;
         let blocks: Vec<Block> = ivs
             .iter()
             .enumerate()
             .map(|(k, iv)| {
-                let m = NR * iv.points;
+                let m = nr * iv.points;
                 let next = ivs.get(k + 1);
                 let v = match next {
                     Some(nx) => (0..iv.points)
@@ -119,8 +124,8 @@ impl Banded {
                     a: vec![0.0; m * m],
                     ft: vec![0.0; 2 * m],
                     y: vec![0.0; 2 * m],
-                    g: vec![0.0; if next.is_some() { NR * m } else { 0 }],
-                    u: vec![0.0; next.map_or(0, |nx| NR * NR * nx.points)],
+                    g: vec![0.0; if next.is_some() { nr * m } else { 0 }],
+                    u: vec![0.0; next.map_or(0, |nx| nr * nr * nx.points)],
                     v,
                     w: vec![0.0; m],
                 }
@@ -129,12 +134,13 @@ impl Banded {
         let n_max = ivs.iter().map(|iv| iv.points).max().unwrap_or(0);
         Banded {
             n: mesh.n,
+            nr,
             blocks,
-            ldlt: Ldlt::new(NR * n_max),
+            ldlt: Ldlt::new(nr * n_max),
             z: [[0.0; 2]; 2],
             z_inv: [[0.0; 2]; 2],
-            p: vec![0.0; NR * n_max * (n_max + 1)],
-            uh: vec![0.0; NR * n_max * NR],
+            p: vec![0.0; nr * n_max * (n_max + 1)],
+            uh: vec![0.0; nr * n_max * nr],
         }
     }
 
@@ -156,15 +162,15 @@ impl Banded {
     /// Form and factor R; its inertia, or None when a block's unpivoted
     /// LDLᵀ meets a zero pivot or grows beyond `growth_max`.
     pub(super) fn factor(&mut self, t: &Terms, growth_max: f64) -> Option<Inertia> {
-        let n = self.n;
-        let nu = NR * n;
-        self.z = [[-t.s_nunu - t.delta_c, t.g[nu]], [t.g[nu], t.a]];
+        let (n, nr) = (self.n, self.nr);
+        let nu = nr * n;
+        self.z = [[t.nu_diagonal, t.g[nu]], [t.g[nu], t.a]];
         let mut inertia = Inertia::default();
-        form_block(&mut self.blocks[0], &mut self.p, t, n);
+        form_block(&mut self.blocks[0], &mut self.p, t, n, nr);
         for k in 0..self.blocks.len() {
             let (head, tail) = self.blocks.split_at_mut(k + 1);
             let b = &mut head[k];
-            let (np, m) = (b.points, NR * b.points);
+            let (np, m) = (b.points, nr * b.points);
             inertia = inertia + self.ldlt.factor(&mut b.a, m, growth_max)?;
             b.y.copy_from_slice(&b.ft);
             Ldlt::solve_cols(&b.a, &mut b.y, 2);
@@ -176,40 +182,40 @@ impl Banded {
             let Some(next) = tail.first_mut() else {
                 break;
             };
-            // G = Â⁻¹V, H = VᵀG and VᵀY (V = v ⊗ I₇).
+            // G = Â⁻¹V, H = VᵀG and VᵀY (V = v ⊗ I_r).
             b.g.iter_mut().for_each(|x| *x = 0.0);
-            for c in 0..NR {
+            for c in 0..nr {
                 b.g[c * m + c * np..c * m + (c + 1) * np].copy_from_slice(&b.v);
             }
-            Ldlt::solve_cols(&b.a, &mut b.g, NR);
+            Ldlt::solve_cols(&b.a, &mut b.g, nr);
             let vt = |col: &[f64], c: usize| dot(&b.v, &col[c * np..(c + 1) * np]);
-            let mut h = [[0.0; NR]; NR];
-            let mut vy = [[0.0; 2]; NR];
-            for c in 0..NR {
-                for c2 in 0..NR {
+            let mut h = [[0.0; NS]; NS];
+            let mut vy = [[0.0; 2]; NS];
+            for c in 0..nr {
+                for c2 in 0..nr {
                     h[c][c2] = vt(&b.g[c2 * m..(c2 + 1) * m], c);
                 }
                 for j in 0..2 {
                     vy[c][j] = vt(&b.y[j * m..(j + 1) * m], c);
                 }
             }
-            coupling(&mut b.u, next.first, next.points, t, n);
-            form_block(next, &mut self.p, t, n);
+            coupling(&mut b.u, next.first, next.points, t, (n, nr));
+            form_block(next, &mut self.p, t, n, nr);
             // Â_{k+1} −= U H Uᵀ (lower block triangle), F̂_{k+1}ᵀ −= U VᵀY.
-            let mn = NR * next.points;
+            let mn = nr * next.points;
             for r in 0..mn {
-                for c2 in 0..NR {
-                    self.uh[c2 * mn + r] = (0..NR).map(|c| b.u[c * mn + r] * h[c][c2]).sum();
+                for c2 in 0..nr {
+                    self.uh[c2 * mn + r] = (0..nr).map(|c| b.u[c * mn + r] * h[c][c2]).sum();
                 }
                 for j in 0..2 {
-                    next.ft[j * mn + r] -= (0..NR).map(|c| b.u[c * mn + r] * vy[c][j]).sum::<f64>();
+                    next.ft[j * mn + r] -= (0..nr).map(|c| b.u[c * mn + r] * vy[c][j]).sum::<f64>();
                 }
             }
-            let uh = MatRef::from_column_major_slice(&self.uh[..mn * NR], mn, NR);
-            let u = MatRef::from_column_major_slice(&b.u, mn, NR);
+            let uh = MatRef::from_column_major_slice(&self.uh[..mn * nr], mn, nr);
+            let u = MatRef::from_column_major_slice(&b.u, mn, nr);
             let mut an = MatMut::from_column_major_slice_mut(&mut next.a, mn, mn);
             let npn = next.points;
-            for c2 in 0..NR {
+            for c2 in 0..nr {
                 let lo = c2 * npn;
                 matmul(
                     an.rb_mut().submatrix_mut(lo, lo, mn - lo, npn),
@@ -238,26 +244,29 @@ impl Banded {
     /// Solve R x = b in place, `rl` in the dense path's order (state-major
     /// over the points, then ν and t̂_f).
     pub(super) fn solve(&mut self, rl: &mut [f64]) {
-        let n = self.n;
-        let nu = NR * n;
+        let (n, nr) = (self.n, self.nr);
+        let nu = nr * n;
         let mut bz = [rl[nu], rl[nu + 1]];
         for b in &mut self.blocks {
-            gather(b, rl, n);
+            gather(b, rl, n, nr);
         }
         // Forward: w_k = Â_k⁻¹ b̂_k, b̂_{k+1} = b_{k+1} − U_k Vᵀ w_k, b̂_z −= F̂_k w_k.
         for k in 0..self.blocks.len() {
             let (head, tail) = self.blocks.split_at_mut(k + 1);
             let b = &mut head[k];
-            let (np, m) = (b.points, NR * b.points);
+            let (np, m) = (b.points, nr * b.points);
             Ldlt::solve_cols(&b.a, &mut b.w, 1);
             for (j, z) in bz.iter_mut().enumerate() {
                 *z -= dot(&b.ft[j * m..(j + 1) * m], &b.w);
             }
             if let Some(next) = tail.first_mut() {
-                let vw: [f64; NR] = std::array::from_fn(|c| dot(&b.v, &b.w[c * np..(c + 1) * np]));
-                let mn = NR * next.points;
+                let mut vw = [0.0; NS];
+                for (c, v) in vw.iter_mut().enumerate().take(nr) {
+                    *v = dot(&b.v, &b.w[c * np..(c + 1) * np]);
+                }
+                let mn = nr * next.points;
                 for (r, x) in next.w.iter_mut().enumerate() {
-                    *x -= (0..NR).map(|c| b.u[c * mn + r] * vw[c]).sum::<f64>();
+                    *x -= (0..nr).map(|c| b.u[c * mn + r] * vw[c]).sum::<f64>();
                 }
             }
         }
@@ -270,21 +279,23 @@ impl Banded {
         for k in (0..self.blocks.len()).rev() {
             let (head, tail) = self.blocks.split_at_mut(k + 1);
             let b = &mut head[k];
-            let m = NR * b.points;
+            let m = nr * b.points;
             for (r, x) in b.w.iter_mut().enumerate() {
                 *x -= b.y[r] * uz[0] + b.y[m + r] * uz[1];
             }
             if let Some(next) = tail.first() {
-                let mn = NR * next.points;
-                let ux: [f64; NR] =
-                    std::array::from_fn(|c| dot(&b.u[c * mn..(c + 1) * mn], &next.w));
+                let mn = nr * next.points;
+                let mut ux = [0.0; NS];
+                for (c, v) in ux.iter_mut().enumerate().take(nr) {
+                    *v = dot(&b.u[c * mn..(c + 1) * mn], &next.w);
+                }
                 for (r, x) in b.w.iter_mut().enumerate() {
-                    *x -= (0..NR).map(|c| b.g[c * m + r] * ux[c]).sum::<f64>();
+                    *x -= (0..nr).map(|c| b.g[c * m + r] * ux[c]).sum::<f64>();
                 }
             }
         }
         for b in &self.blocks {
-            for c in 0..NR {
+            for c in 0..nr {
                 let (s, np) = (b.first, b.points);
                 rl[c * n + s..c * n + s + np].copy_from_slice(&b.w[c * np..(c + 1) * np]);
             }
@@ -299,9 +310,9 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// The block's right-hand side, from `rl` (state-major over all points).
-fn gather(b: &mut Block, rl: &[f64], n: usize) {
+fn gather(b: &mut Block, rl: &[f64], n: usize, nr: usize) {
     let (s, np) = (b.first, b.points);
-    for c in 0..NR {
+    for c in 0..nr {
         b.w[c * np..(c + 1) * np].copy_from_slice(&rl[c * n + s..c * n + s + np]);
     }
 }
@@ -314,16 +325,17 @@ fn gather(b: &mut Block, rl: &[f64], n: usize) {
 ///
 /// ℓ over the interval's n_k + 1 nodes; the D ⊗ Q part is one product
 /// P·D_kᵀ per block column (faer's matmul), as on the dense path.
-fn form_block(b: &mut Block, p: &mut [f64], t: &Terms, n: usize) {
+fn form_block(b: &mut Block, p: &mut [f64], t: &Terms, n: usize, nr: usize) {
     let (s, np) = (b.first, b.points);
-    let m = NR * np;
+    let c0 = t.c0;
+    let m = nr * np;
     let dk = MatRef::from_column_major_slice(t.d, n, n + 1).submatrix(s, s, np, np + 1);
     let mut a = MatMut::from_column_major_slice_mut(&mut b.a, m, m);
-    for c2 in 0..NR {
+    for c2 in 0..nr {
         for l in 0..=np {
             let col = &t.d[(s + l) * n + s..(s + l) * n + s + np];
-            for c in c2..NR {
-                let q = t.q[s + l][c][c2];
+            for c in c2..nr {
+                let q = t.q[s + l][c + c0][c2 + c0];
                 for (x, d) in p[l * m + c * np..l * m + (c + 1) * np].iter_mut().zip(col) {
                     *x = d * q;
                 }
@@ -341,24 +353,24 @@ fn form_block(b: &mut Block, p: &mut [f64], t: &Terms, n: usize) {
         );
     }
     let a = &mut b.a;
-    for c2 in 0..NR {
+    for c2 in 0..nr {
         for bb in 0..np {
             let j = s + bb;
             let (rj, tj) = &t.cross[j];
             let base = (c2 * np + bb) * m;
-            for c in c2..NR {
+            for c in c2..nr {
                 let col = &mut a[base + c * np..base + (c + 1) * np];
                 for (aa, x) in col.iter_mut().enumerate() {
                     let i = s + aa;
-                    *x -= t.d[j * n + i] * rj[c + 1][c2 + 1]
-                        + t.d[i * n + j] * t.cross[i].0[c2 + 1][c + 1];
+                    *x -= t.d[j * n + i] * rj[c + c0][c2 + c0]
+                        + t.d[i * n + j] * t.cross[i].0[c2 + c0][c + c0];
                 }
-                col[bb] -= tj[c + 1][c2 + 1];
+                col[bb] -= tj[c + c0][c2 + c0];
             }
             a[base + c2 * np + bb] -= t.delta_c;
         }
     }
-    for c in 0..NR {
+    for c in 0..nr {
         for aa in 0..np {
             let i = c * n + s + aa;
             b.ft[c * np + aa] = -t.s_nu[i];
@@ -369,15 +381,16 @@ fn form_block(b: &mut Block, p: &mut [f64], t: &Terms, n: usize) {
 
 /// U_k over the next interval's rows (first point `s`, `np` points):
 /// U[(a, c), c′] = −(D_{s+a,s} Q_s(c, c′) + [a = 0] R_s(c′, c)).
-fn coupling(u: &mut [f64], s: usize, np: usize, t: &Terms, n: usize) {
-    let mn = NR * np;
+fn coupling(u: &mut [f64], s: usize, np: usize, t: &Terms, (n, nr): (usize, usize)) {
+    let mn = nr * np;
+    let c0 = t.c0;
     let (q, r) = (&t.q[s], &t.cross[s].0);
-    for c2 in 0..NR {
-        for c in 0..NR {
+    for c2 in 0..nr {
+        for c in 0..nr {
             for aa in 0..np {
-                u[c2 * mn + c * np + aa] = -t.d[s * n + s + aa] * q[c][c2];
+                u[c2 * mn + c * np + aa] = -t.d[s * n + s + aa] * q[c + c0][c2 + c0];
             }
-            u[c2 * mn + c * np] -= r[c2 + 1][c + 1];
+            u[c2 * mn + c * np] -= r[c2 + c0][c + c0];
         }
     }
 }

@@ -39,8 +39,20 @@ pub(super) struct XElimination {
 }
 
 impl XElimination {
-    pub(super) fn new(nlp: &Nlp, d: &[f64]) -> Self {
+    /// The elimination on `nlp`'s mesh (D column-major), or, when not
+    /// `eliminate`, none: no node eliminated, ŵ = 0, so that ν's row is
+    /// empty and the solve keeps x among the node blocks and R.
+    pub(super) fn new(nlp: &Nlp, d: &[f64], eliminate: bool) -> Self {
         let n = nlp.n;
+        if !eliminate {
+            return XElimination {
+                at: vec![false; n + 1],
+                nodes: Vec::new(),
+                pinv: Vec::new(),
+                null: vec![0.0; n],
+                null_d_last: 0.0,
+            };
+        }
         let at: Vec<bool> = (0..=n)
             .map(|k| k < n && !nlp.is_fixed(nlp.idx(k, slot::X)))
             .collect();

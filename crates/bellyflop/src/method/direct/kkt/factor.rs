@@ -10,7 +10,7 @@ use faer::reborrow::ReborrowMut;
 use faer::{Accum, MatMut, MatRef, Par};
 
 use super::dense::small_ldlt_inverse;
-use super::{banded, Inertia, KktMatrix, KktSolver, ReducedPath, NR};
+use super::{banded, Inertia, KktMatrix, KktSolver, ReducedPath};
 use crate::method::direct::nlp::{slot, NL, NS};
 
 impl KktSolver {
@@ -65,12 +65,13 @@ impl KktSolver {
         if let Some(mut banded) = self.banded.take() {
             let (s_nunu, a) = self.node_terms(kkt, false);
             let terms = banded::Terms {
+                c0: self.c0,
                 d: &self.d,
                 q: &self.q,
                 cross: &self.cross,
                 s_nu: &self.s_nu,
                 g: &self.rhs,
-                s_nunu,
+                nu_diagonal: self.nu_diagonal(s_nunu, kkt.delta_c),
                 a,
                 delta_c: kkt.delta_c,
             };
@@ -78,7 +79,7 @@ impl KktSolver {
             self.banded = Some(banded);
             if let Some(inertia) = inertia {
                 self.path = ReducedPath::Banded;
-                return inertia + self.eliminated_inertia();
+                return self.with_eliminated(inertia);
             }
         }
         self.form_reduced(kkt);
@@ -87,29 +88,44 @@ impl KktSolver {
                 .factor(&mut self.reduced.a[..rd * rd], rd, self.growth_max)
         {
             self.path = ReducedPath::Unpivoted;
-            return inertia + self.eliminated_inertia();
+            return self.with_eliminated(inertia);
         }
         self.form_reduced(kkt);
         self.path = ReducedPath::BunchKaufman;
-        self.reduced.factor(rd) + self.eliminated_inertia()
+        let inertia = self.reduced.factor(rd);
+        self.with_eliminated(inertia)
     }
 
-    /// The inertia of the eliminated pairs (x_k, its part of λ_x): N − 1
-    /// positive and N − 1 negative eigenvalues.
-    fn eliminated_inertia(&self) -> Inertia {
+    /// K's inertia from R's: plus the eliminated pairs (x_k, its part of
+    /// λ_x), N − 1 positive and N − 1 negative eigenvalues; where x is
+    /// kept, none, and one negative fewer for ν's placeholder row
+    /// ([`Self::nu_diagonal`]).
+    fn with_eliminated(&self, reduced: Inertia) -> Inertia {
         let ne = self.x.nodes.len();
         Inertia {
-            positive: ne,
-            negative: ne,
-            zero: 0,
+            positive: reduced.positive + ne,
+            negative: (reduced.negative + ne).saturating_sub(usize::from(self.c0 == 0)),
+            zero: reduced.zero,
+        }
+    }
+
+    /// R's ν diagonal: −S_νν − δ_c, or −1 where x is kept and ν's row is a
+    /// placeholder (no couplings, so its solution is 0 and its eigenvalue
+    /// −1, which [`Self::with_eliminated`] takes off).
+    fn nu_diagonal(&self, s_nunu: f64, delta_c: f64) -> f64 {
+        if self.c0 == 0 {
+            -1.0
+        } else {
+            -s_nunu - delta_c
         }
     }
 
     /// Form R's lower triangle in `reduced.a`, and g in `rhs`.
     ///
     /// Inside R the kept multipliers are ordered state-major (λ of state c at
-    /// point i is row (c − 1)·N + i), so that the D ⊗ I part of S,
-    /// S^{cc2} = D·diag(Q_k(c, c2))·Dᵀ, is seven dense products P_{c2}·Dᵀ
+    /// point i is row (c − c0)·N + i), so that the D ⊗ I part of S,
+    /// S^{cc2} = D·diag(Q_k(c, c2))·Dᵀ, is seven (eight with x) dense
+    /// products P_{c2}·Dᵀ
     /// (faer's SIMD matmul) instead of a scattered 49·N³ loop, which took
     /// 56 % of a solve at N = 40 (perf). ν's row is formed like any other
     /// constraint's, from its per-node coefficients e_k.
@@ -125,12 +141,13 @@ impl KktSolver {
     fn node_terms(&mut self, kkt: &KktMatrix, dense: bool) -> (f64, f64) {
         let n = self.n;
         let nn = n + 1;
-        let pdim = NR * n;
+        let (c0, nr) = (self.c0, self.nr);
+        let pdim = nr * n;
         let nu = pdim;
-        let sm = |c: usize, i: usize| (c - 1) * n + i;
+        let sm = |c: usize, i: usize| (c - c0) * n + i;
         let mut g = std::mem::take(&mut self.rhs);
         for i in 0..n {
-            for c in 1..NS {
+            for c in c0..NS {
                 g[sm(c, i)] = kkt.j_t[i][c];
             }
         }
@@ -148,7 +165,7 @@ impl KktSolver {
             let b = sl.len();
             let m = &self.m_inv[k];
             // The kept states' positions in the block.
-            let state = |p: usize| (sl[p] >= 1 && sl[p] < NS).then_some(sl[p]);
+            let state = |p: usize| (sl[p] >= c0 && sl[p] < NS).then_some(sl[p]);
             // ν's row over the block: ŵ_k·(x's defect row at k) and, at node
             // N, x_N's column of D.
             let mut e = [0.0; NL];
@@ -173,7 +190,7 @@ impl KktSolver {
             self.e[k] = e;
             self.me[k] = me;
             let qk = &mut self.q[k];
-            *qk = [[0.0; NR]; NR];
+            *qk = [[0.0; NS]; NS];
             // Column k of D over its nonzero rows lo..hi, so that each write
             // below is one contiguous, vectorizable run over i (P's other
             // entries stay at the zeros of `new`).
@@ -190,9 +207,9 @@ impl KktSolver {
                 for q in 0..b {
                     let Some(c2) = state(q) else { continue };
                     let mpq = m[p][q];
-                    qk[c - 1][c2 - 1] = mpq;
+                    qk[c][c2] = mpq;
                     if dense {
-                        let base = ((c2 - 1) * nn + k) * pdim + sm(c, 0);
+                        let base = ((c2 - c0) * nn + k) * pdim + sm(c, 0);
                         for (x, d) in self.p[base + lo..base + hi].iter_mut().zip(d_col) {
                             *x = d * mpq;
                         }
@@ -205,7 +222,7 @@ impl KktSolver {
             let bk = &kkt.b[k];
             let mut gm = [[0.0; NS]; NL];
             for p in 0..b {
-                for row in 1..NS {
+                for row in c0..NS {
                     gm[p][row] = (0..b).map(|q| m[p][q] * bk[row][sl[q]]).sum();
                 }
             }
@@ -216,8 +233,8 @@ impl KktSolver {
                 }
             }
             let mut tm = [[0.0; NS]; NS];
-            for c in 1..NS {
-                for c2 in 1..NS {
+            for c in c0..NS {
+                for c2 in c0..NS {
                     tm[c][c2] = (0..b).map(|p| bk[c][sl[p]] * gm[p][c2]).sum();
                 }
                 g[sm(c, k)] -= (0..b).map(|p| bk[c][sl[p]] * u[p]).sum::<f64>();
@@ -237,10 +254,10 @@ impl KktSolver {
     pub fn warm_up_thread(&self) {
         let n = self.n;
         let rd = self.dim() + 1;
-        let (nn, pdim) = (n + 1, NR * n);
+        let (nn, pdim) = (n + 1, self.nr * n);
         let mut r = vec![0.0; rd * rd];
         let mut r = MatMut::from_column_major_slice_mut(&mut r, rd, rd);
-        let pm = MatRef::from_column_major_slice(&self.p, pdim, NR * nn);
+        let pm = MatRef::from_column_major_slice(&self.p, pdim, self.nr * nn);
         let d = MatRef::from_column_major_slice(&self.d, n, nn);
         matmul(
             r.rb_mut().submatrix_mut(0, 0, pdim, n),
@@ -259,23 +276,25 @@ impl KktSolver {
         let dim = self.dim();
         let rd = dim + 1;
         let nn = n + 1;
-        let pdim = NR * n;
+        let (c0, nr) = (self.c0, self.nr);
+        let pdim = nr * n;
         let nu = pdim;
-        let sm = |c: usize, i: usize| (c - 1) * n + i;
+        let sm = |c: usize, i: usize| (c - c0) * n + i;
+        let nu_diagonal = self.nu_diagonal(s_nunu, kkt.delta_c);
         let g = &self.rhs;
-        // −S = −Σ_k (d_k d_kᵀ) ⊗ Q_k by seven products, into R's leading
+        // −S = −Σ_k (d_k d_kᵀ) ⊗ Q_k by one product per kept state, into R's leading
         // block; only the blocks on and below the diagonal (c ≥ c2) are
         // formed, since the factorization reads the lower triangle alone.
         {
             let mut r = MatMut::from_column_major_slice_mut(&mut self.reduced.a[..rd * rd], rd, rd);
-            let pm = MatRef::from_column_major_slice(&self.p, pdim, NR * nn);
+            let pm = MatRef::from_column_major_slice(&self.p, pdim, nr * nn);
             let d = MatRef::from_column_major_slice(&self.d, n, nn);
-            for c2 in 1..NS {
+            for c2 in c0..NS {
                 let rows = sm(c2, 0);
                 matmul(
                     r.rb_mut().submatrix_mut(rows, rows, pdim - rows, n),
                     Accum::Replace,
-                    pm.subcols((c2 - 1) * nn, nn).subrows(rows, pdim - rows),
+                    pm.subcols((c2 - c0) * nn, nn).subrows(rows, pdim - rows),
                     d.transpose(),
                     -1.0,
                     Par::Seq,
@@ -295,7 +314,7 @@ impl KktSolver {
         // The cross terms of block (c, c2), column j, row i:
         // D_ij R_j[c][c2] + D_ji R_i[c2][c], and T_j on the diagonal blocks.
         // Every operand and write runs contiguously in i.
-        for c2 in 1..NS {
+        for c2 in c0..NS {
             for j in 0..n {
                 let base = sm(c2, j) * rd;
                 let (rj, tj) = &self.cross[j];
@@ -317,11 +336,11 @@ impl KktSolver {
         for c in 0..pdim {
             r[c * rd + nu] = -self.s_nu[c];
         }
-        r[nu * rd + nu] = -s_nunu;
         for c in 0..dim {
             r[c * rd + c] -= kkt.delta_c;
             r[c * rd + dim] = g[c];
         }
+        r[nu * rd + nu] = nu_diagonal;
         r[dim * rd + dim] = a;
     }
 }

@@ -14,7 +14,10 @@
 //! per node, and J_y is D ⊗ I on the states plus one 8×12 block per
 //! collocation point. The positions x_1 … x_{N−1} and their defects are
 //! first eliminated exactly (`XElimination`: x is linear, with zero rows
-//! of W), leaving one row ν of their defects. Each block W_k (at most 12
+//! of W), leaving one row ν of their defects; except where an operational
+//! row involves x (the approach cone, issue 37: its barrier terms give x
+//! rows of W), where x stays a state of the node blocks and of R
+//! ([`eliminates_x`]) and ν's row is a placeholder. Each block W_k (at most 12
 //! square, symmetric, possibly indefinite) is factored and inverted (an
 //! unpivoted LDLᵀ with a growth test, Bunch–Kaufman as fallback); the
 //! reduced system
@@ -24,7 +27,8 @@
 //!     [ g                    −S  ]     S = δ_c I + J_y W⁻¹ J_yᵀ
 //! ```
 //!
-//! over the kept multipliers, ν and t̂_f (7N + 2 square, dense on the global
+//! over the kept multipliers, ν and t̂_f (7N + 2 square, or 8N + 2 with x
+//! kept; dense on the global
 //! mesh) is factored densely on the global mesh, and block by block over the
 //! intervals on an hp mesh, where it is block-tridiagonal with a border of
 //! two (`banded`). By Sylvester's law of inertia, In(K) =
@@ -276,9 +280,14 @@ pub enum ReducedPath {
 /// error of about 1e-10·|R|, which the refinement removes.
 pub const GROWTH_MAX: f64 = 1e6;
 
-/// Kept states per collocation point in R: z, Vx, Vz, θ, w, m, δ (x's
-/// defects are eliminated, [`XElimination`]).
-const NR: usize = NS - 1;
+/// Whether x_1 … x_{N−1} and their defects are eliminated from the
+/// system (`XElimination`): unless an operational row involves x (the
+/// approach cone, issue 37), whose barrier terms give x rows of W.
+pub fn eliminates_x(nlp: &Nlp) -> bool {
+    !nlp.limits
+        .iter()
+        .any(|r| r.limit == crate::problem::constraints::Limit::Cone)
+}
 
 /// Storage and factors of the structured KKT solve.
 pub struct KktSolver {
@@ -287,20 +296,26 @@ pub struct KktSolver {
     /// eliminated), in order, and each slot's position (usize::MAX: none).
     slots: Vec<Vec<usize>>,
     pos: Vec<[usize; NL]>,
-    /// The elimination of x and its defects.
+    /// The elimination of x and its defects (none where x is kept).
     x: XElimination,
+    /// The first kept state of R: 1 (z) when x is eliminated, 0 (x) when
+    /// it is kept; R keeps states c0 … 7, `nr` = 8 − c0 of them per point.
+    c0: usize,
+    nr: usize,
     /// Per node: M_k = (W_k + δ I)⁻¹ over the block's slots (row-major, NL×NL).
     m_inv: Vec<[[f64; NL]; NL]>,
     /// The node blocks' factorization (≤ NL square).
     node: Lblt,
-    /// R, (7N + 2) square: the kept multipliers (state-major), ν, then t̂_f.
+    /// R, (nr·N + 2) square: the kept multipliers (state-major), ν, then
+    /// t̂_f (ν a placeholder row −1 where x is kept).
     reduced: Lblt,
     /// R's LDLᵀ without pivoting, and the largest growth kept.
     unpivoted: Ldlt,
     /// On an hp mesh, R's block-tridiagonal factorization.
     banded: Option<banded::Banded>,
-    /// Per node: M_k over the kept states (zero where a state is fixed).
-    q: Vec<[[f64; NR]; NR]>,
+    /// Per node: M_k over the states, by state (zero where a state is
+    /// fixed or not kept).
+    q: Vec<Block8>,
     /// Per node k: the rows i with D_ik ≠ 0, as a range (lo, hi).
     col_rows: Vec<(usize, usize)>,
     growth_max: f64,
@@ -327,7 +342,7 @@ pub struct KktSolver {
     d_rows: Vec<f64>,
     /// `R_i[c2][c]` by (c2, c), contiguous in i.
     rt: Vec<f64>,
-    /// P = (I ⊗ D)·blockdiag(Q) over the kept states: 7N × 7(N+1), column-major.
+    /// P = (I ⊗ D)·blockdiag(Q) over the kept states: rN × r(N+1), column-major (r = 7, or 8 with x).
     p: Vec<f64>,
     /// Per collocation point: R_k = E M Bᵀ and T_k = B M Bᵀ.
     cross: Vec<(Block8, Block8)>,
@@ -344,7 +359,9 @@ impl KktSolver {
                 d_rows[i * (n + 1) + k] = v;
             }
         }
-        let x = XElimination::new(nlp, &d);
+        let c0 = usize::from(eliminates_x(nlp));
+        let nr = NS - c0;
+        let x = XElimination::new(nlp, &d, c0 == 1);
         let slots: Vec<Vec<usize>> = (0..=n)
             .map(|k| {
                 (0..NL)
@@ -363,7 +380,7 @@ impl KktSolver {
             })
             .collect();
         let ne = x.nodes.len();
-        let rd = NR * n + 2;
+        let rd = nr * n + 2;
         let col_rows = nlp
             .d_cols
             .iter()
@@ -378,12 +395,14 @@ impl KktSolver {
             slots,
             pos,
             x,
+            c0,
+            nr,
             m_inv: vec![[[0.0; NL]; NL]; n + 1],
             node: Lblt::new(NL, NL),
             reduced: Lblt::new(rd, 1),
             unpivoted: Ldlt::new(rd),
-            banded: (nlp.mesh.intervals.len() > 1).then(|| banded::Banded::new(&nlp.mesh)),
-            q: vec![[[0.0; NR]; NR]; n + 1],
+            banded: (nlp.mesh.intervals.len() > 1).then(|| banded::Banded::new(&nlp.mesh, nr)),
+            q: vec![[[0.0; NS]; NS]; n + 1],
             col_rows,
             growth_max: GROWTH_MAX,
             path: ReducedPath::BunchKaufman,
@@ -392,15 +411,15 @@ impl KktSolver {
             e: vec![[0.0; NL]; n + 1],
             me: vec![[0.0; NL]; n + 1],
             rhs: vec![0.0; rd],
-            by_state: vec![0.0; NR * (n + 1)],
+            by_state: vec![0.0; nr * (n + 1)],
             xq: vec![0.0; n],
             xv: vec![0.0; n],
             xe: vec![0.0; ne],
-            s_nu: vec![0.0; NR * n],
+            s_nu: vec![0.0; nr * n],
             d,
             d_rows,
             rt: vec![0.0; NS * NS * n],
-            p: vec![0.0; NR * n * NR * (n + 1)],
+            p: vec![0.0; nr * n * nr * (n + 1)],
             cross: vec![([[0.0; NS]; NS], [[0.0; NS]; NS]); n],
         }
     }
@@ -410,14 +429,17 @@ impl KktSolver {
     /// builds its structure from. A re-plan of the same problem keeps
     /// both, so it can [`Self::reset`] this solver instead of building one.
     pub fn fits(&self, nlp: &Nlp) -> bool {
+        let eliminating = self.c0 == 1;
         nlp.n == self.n
+            && eliminates_x(nlp) == eliminating
             && (0..=self.n).all(|k| {
                 let free =
                     |s: usize| !(nlp.is_fixed(nlp.idx(k, s)) || s == slot::X && self.x.at[k]);
                 (0..NL)
                     .filter(|&s| free(s))
                     .eq(self.slots[k].iter().copied())
-                    && self.x.at[k] == (k < self.n && !nlp.is_fixed(nlp.idx(k, slot::X)))
+                    && self.x.at[k]
+                        == (eliminating && k < self.n && !nlp.is_fixed(nlp.idx(k, slot::X)))
             })
             && nlp
                 .d_cols
@@ -438,7 +460,7 @@ impl KktSolver {
         if let Some(b) = &mut self.banded {
             b.reset();
         }
-        self.q.fill([[0.0; NR]; NR]);
+        self.q.fill([[0.0; NS]; NS]);
         self.growth_max = GROWTH_MAX;
         self.path = ReducedPath::BunchKaufman;
         for v in [&mut self.r_tmp, &mut self.y_tmp, &mut self.e, &mut self.me] {
@@ -461,7 +483,13 @@ impl KktSolver {
 
     /// The kept multipliers and ν: R without t̂_f.
     fn dim(&self) -> usize {
-        NR * self.n + 1
+        self.nr * self.n + 1
+    }
+
+    /// R's row of the multiplier of state c ≥ c0 at point i (state-major).
+    #[inline]
+    fn sm(&self, c: usize, i: usize) -> usize {
+        (c - self.c0) * self.n + i
     }
 
     /// Whether slot `s` of node `k` is eliminated from the node blocks (the

@@ -72,9 +72,9 @@ impl KktSolver {
                 y[p] = (0..sl.len()).map(|q| m[p][q] * r[q]).sum();
                 rt -= kkt.h_t[k][sl[p]] * y[p];
             }
-            for c in 1..NS {
+            for c in self.c0..NS {
                 let p = self.pos[k][c];
-                self.by_state[(c - 1) * nn + k] = if p == usize::MAX { 0.0 } else { y[p] };
+                self.by_state[(c - self.c0) * nn + k] = if p == usize::MAX { 0.0 } else { y[p] };
             }
             self.r_tmp[k] = r;
             self.y_tmp[k] = y;
@@ -89,9 +89,10 @@ impl KktSolver {
         let nn = n + 1;
         let dim = self.dim();
         let nu = dim - 1;
-        let sm = |c: usize, i: usize| (c - 1) * n + i;
+        let c0 = self.c0;
+        let sm = |c: usize, i: usize| (c - c0) * n + i;
         for i in 0..n {
-            for c in 1..NS {
+            for c in c0..NS {
                 let y = &self.y_tmp[i];
                 let sl = &self.slots[i];
                 rl[sm(c, i)] = r_l[i * NS + c]
@@ -100,9 +101,9 @@ impl KktSolver {
                         .sum::<f64>();
             }
         }
-        for c in 1..NS {
+        for c in c0..NS {
             // r −= D ỹ_c, one contiguous axpy per node.
-            let yc = &self.by_state[(c - 1) * nn..c * nn];
+            let yc = &self.by_state[(c - c0) * nn..(c - c0 + 1) * nn];
             let out = &mut rl[sm(c, 0)..sm(c, 0) + n];
             for (k, &yk) in yc.iter().enumerate() {
                 if yk != 0.0 {
@@ -154,7 +155,8 @@ impl KktSolver {
     ) {
         let n = self.n;
         let tf = nlp.tf_idx();
-        let sm = |c: usize, i: usize| (c - 1) * n + i;
+        let c0 = self.c0;
+        let sm = |c: usize, i: usize| (c - c0) * n + i;
         x_w.iter_mut().for_each(|v| *v = 0.0);
         x_w[tf] = t;
         for k in 0..=n {
@@ -164,12 +166,12 @@ impl KktSolver {
             let d_col = &self.d[k * n + lo..k * n + hi];
             for (p, &s) in sl.iter().enumerate() {
                 r[p] -= kkt.h_t[k][s] * t + self.e[k][p] * nu_v;
-                if (1..NS).contains(&s) {
+                if (c0..NS).contains(&s) {
                     let lam = &rl[sm(s, lo)..sm(s, hi)];
                     r[p] -= d_col.iter().zip(lam).map(|(d, l)| d * l).sum::<f64>();
                 }
                 if k < n {
-                    r[p] -= (1..NS).map(|c| kkt.b[k][c][s] * rl[sm(c, k)]).sum::<f64>();
+                    r[p] -= (c0..NS).map(|c| kkt.b[k][c][s] * rl[sm(c, k)]).sum::<f64>();
                 }
             }
             let m = &self.m_inv[k];
@@ -184,11 +186,9 @@ impl KktSolver {
 
     /// The kept multipliers, from R's solution (state-major) into `x_l`.
     fn kept_multipliers(&self, rl: &[f64], x_l: &mut [f64]) {
-        let n = self.n;
-        let sm = |c: usize, i: usize| (c - 1) * n + i;
-        for i in 0..n {
-            for c in 1..NS {
-                x_l[i * NS + c] = rl[sm(c, i)];
+        for i in 0..self.n {
+            for c in self.c0..NS {
+                x_l[i * NS + c] = rl[self.sm(c, i)];
             }
         }
     }
@@ -203,6 +203,10 @@ impl KktSolver {
         x_w: &mut [f64],
         x_l: &mut [f64],
     ) {
+        if self.c0 == 0 {
+            // x is kept: R and the node blocks gave Δx and λ_x.
+            return;
+        }
         let n = self.n;
         let x_n = if self.pos[n][slot::X] == usize::MAX {
             0.0
@@ -236,6 +240,8 @@ mod tests {
 
     /// A random system on `nlp`'s structure, with node blocks of both signs
     /// (AᵀA − I/2), or positive definite ones (AᵀA + I/2) when `definite`.
+    /// x's rows of W are zero unless the problem has a cone (whose barrier
+    /// terms couple x and z: then x is kept, not eliminated).
     fn random_system(nlp: &Nlp, rng: &mut ChaCha8Rng, definite: bool) -> KktMatrix {
         let shift = if definite { -0.5 } else { 0.5 };
         let mut k = KktMatrix::zeros(nlp);
@@ -261,8 +267,13 @@ mod tests {
         }
         // x enters P2 linearly, through its own defects alone: no Hessian,
         // no t̂_f cross term, no other defect depends on it (x_N, when free,
-        // keeps its Hessian: the soft terminal term's).
+        // keeps its Hessian: the soft terminal term's). With a cone, x's
+        // rows of W carry its barrier terms.
+        let cone = !crate::method::direct::kkt::eliminates_x(nlp);
         for node in 0..nlp.n {
+            if cone {
+                continue;
+            }
             for r in 0..NL {
                 k.w[node][slot::X][r] = 0.0;
                 k.w[node][r][slot::X] = 0.0;
@@ -282,20 +293,26 @@ mod tests {
     #[test]
     fn structured_solve_matches_a_dense_solve() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
-        // (N, intervals, definite node blocks and δ_c = 1e-2, x_N free).
+        // (N, intervals, definite node blocks and δ_c = 1e-2, x_N free,
+        // a cone: x kept in R).
         let cases = [
-            (6, 1, false, false),
-            (9, 3, false, false),
-            (6, 1, true, false),
-            (9, 3, true, true),
-            (7, 1, false, true),
-            (20, 1, false, false),
-            (8, 2, false, false),
-            (13, 4, false, true),
-            (13, 4, true, false),
-            (30, 5, false, false),
+            (6, 1, false, false, false),
+            (6, 1, false, false, true),
+            (9, 3, false, false, true),
+            (9, 3, true, true, true),
+            (20, 1, false, true, true),
+            (13, 4, false, false, true),
+            (9, 3, false, false, false),
+            (6, 1, true, false, false),
+            (9, 3, true, true, false),
+            (7, 1, false, true, false),
+            (20, 1, false, false, false),
+            (8, 2, false, false, false),
+            (13, 4, false, true, false),
+            (13, 4, true, false, false),
+            (30, 5, false, false, false),
         ];
-        for ((nodes, intervals, definite, soft), path) in cases.into_iter().flat_map(|c| {
+        for ((nodes, intervals, definite, soft, cone), path) in cases.into_iter().flat_map(|c| {
             let first = if c.1 > 1 {
                 ReducedPath::Banded
             } else {
@@ -306,6 +323,9 @@ mod tests {
             let mut s = Scenario::paper();
             s.discretization.nodes = nodes;
             s.discretization.intervals = intervals;
+            if cone {
+                s.constraints.cone_half_angle_deg = Some(30.0);
+            }
             let mut sv = crate::SolverSettings::default();
             if soft {
                 sv.terminal_lateral_weight = 1.0;
@@ -313,6 +333,11 @@ mod tests {
             let nlp = Nlp::new(&s, &sv);
             let kkt = random_system(&nlp, &mut rng, definite);
             let mut solver = KktSolver::new(&nlp);
+            assert_eq!(
+                crate::method::direct::kkt::eliminates_x(&nlp),
+                !cone,
+                "x is kept exactly where a cone is"
+            );
             if path == ReducedPath::BunchKaufman {
                 solver.set_growth_max(0.0);
             }
