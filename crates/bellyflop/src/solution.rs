@@ -371,6 +371,33 @@ pub struct PathReport {
     pub limits: Vec<LimitReport>,
 }
 
+/// Evidence of which operational limits rule a state out, when the solve
+/// found no trajectory that holds them (issue 37;
+/// [`crate::pipeline::evidence`]). Not a proof that none exists: the
+/// status stays `not_converged`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LimitEvidence {
+    /// Whether the same state without its limits was solved (the method's
+    /// raw answer, on the same mesh).
+    pub unconstrained_solved: bool,
+    /// That answer's final mass \[kg\] (when solved).
+    pub unconstrained_final_mass_kg: Option<f64>,
+    /// Each limit that the unconstrained answer breaks, at its worst along
+    /// its nodes and between them (`worst` > 0, in the limit's unit), and
+    /// when: where the limit cuts the optimum away.
+    pub broken: Vec<LimitReport>,
+    /// With several limits, each one alone: whether the state with that
+    /// limit alone was solved (raw answer).
+    pub alone: Vec<LimitAlone>,
+}
+
+/// One limit alone on a state that all of them together leave unsolved.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LimitAlone {
+    pub limit: crate::problem::constraints::Limit,
+    pub solved: bool,
+}
+
 /// One operational constraint along a flight: the largest value of its
 /// rows g(y) ≤ 0 ([`crate::problem::constraints`]), and when.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -450,6 +477,10 @@ pub struct Solution {
     /// `solved` or `inaccurate` answer ([`crate::verify::path`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub path: Option<PathReport>,
+    /// Where the operational limits cut, when no trajectory that holds
+    /// them was found (`not_converged` with limits: [`LimitEvidence`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub limit_evidence: Option<LimitEvidence>,
     /// The LCvx trajectory itself, for warm starts and re-propagation.
     #[serde(skip)]
     pub trajectory: Trajectory,
@@ -562,6 +593,7 @@ impl Solution {
             polish: None,
             optimality: None,
             path: None,
+            limit_evidence: None,
             trajectory: Trajectory {
                 x: Vec::new(),
                 u: Vec::new(),

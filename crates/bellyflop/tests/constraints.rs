@@ -146,6 +146,66 @@ fn an_initial_state_outside_a_limit_is_infeasible_with_its_reason() {
     assert!(sol.message.contains("pitch-rate"), "{}", sol.message);
 }
 
+/// A 10° cone about the pad holds the paper's initial state (9.46° off the
+/// vertical) but not the flip's lateral travel (IPOPT on the same
+/// transcription: locally infeasible too): no trajectory is found,
+/// and the answer says where the limit cuts. Without the limits the state
+/// is solved and that answer leaves the cone; alone, the cone leaves it
+/// unsolved and the pitch-rate limit does not. No proof, so the status
+/// stays `not_converged`.
+#[test]
+fn a_limit_that_leaves_no_trajectory_is_named_with_where_it_cuts() {
+    let s = with(Constraints {
+        cone_half_angle_deg: Some(10.0),
+        max_pitch_rate_degps: Some(30.0),
+        ..Default::default()
+    });
+    let sol = solve(&s);
+    assert_eq!(sol.status, Status::NotConverged, "{}", sol.message);
+    let e = sol.limit_evidence.as_ref().expect("evidence");
+    assert!(e.unconstrained_solved);
+    // The raw answer of the same method without the limits.
+    let raw = SolverSettings {
+        polish: false,
+        ..SolverSettings::default()
+    };
+    let free = bellyflop::solve(&Scenario::paper(), &raw, &mut Silent);
+    let mass = e.unconstrained_final_mass_kg.unwrap();
+    assert!(
+        (mass - free.final_mass_kg).abs() < 1e-6,
+        "{mass} against {}",
+        free.final_mass_kg
+    );
+    let cone = e
+        .broken
+        .iter()
+        .find(|r| r.limit == Limit::Cone)
+        .expect("the cone is broken");
+    assert!(
+        cone.worst > 1.0 && cone.t_s > 0.0 && cone.t_s < free.tf_s,
+        "{cone:?}"
+    );
+    assert!(
+        e.alone.iter().any(|a| a.limit == Limit::Cone && !a.solved),
+        "{:?}",
+        e.alone
+    );
+    assert!(
+        e.alone
+            .iter()
+            .any(|a| a.limit == Limit::PitchRate && a.solved),
+        "{:?}",
+        e.alone
+    );
+    for needle in [
+        "without its limits this state is solved",
+        "the approach cone by",
+        "alone",
+    ] {
+        assert!(sol.message.contains(needle), "{needle}: {}", sol.message);
+    }
+}
+
 /// Without a `[constraints]` table the problem is the paper's: no rows, no
 /// limits in the answer's path (the golden tests hold its numbers).
 #[test]

@@ -291,8 +291,9 @@ pub struct NodeExcess {
 /// The worst row of `s` at the node states `x` (physical, a
 /// trajectory's `x`) that exceeds its limit by
 /// more than `relative` of its scale ([`Row::scale`]), or None: the check
-/// of a raw answer from a method that does not hold every row at its
-/// nodes (the direct method and the cone). Allocates nothing.
+/// of a raw answer before the planner adopts it (each method holds the rows
+/// at its nodes only to its own tolerances, SCvx's linearized). Allocates
+/// nothing.
 pub fn worst_at_nodes<Y: AsRef<[f64]>>(s: &Scenario, x: &[Y], relative: f64) -> Option<NodeExcess> {
     let mut worst: Option<(f64, NodeExcess)> = None;
     for row in each_row(s) {
@@ -313,6 +314,38 @@ pub fn worst_at_nodes<Y: AsRef<[f64]>>(s: &Scenario, x: &[Y], relative: f64) -> 
         }
     }
     worst.map(|(_, e)| e)
+}
+
+/// The limits that `c` switches on, in the order of [`Limit`].
+pub fn limits(c: &Constraints) -> Vec<Limit> {
+    let on = [
+        (Limit::Cone, c.cone_half_angle_deg.is_some()),
+        (Limit::PitchRate, c.max_pitch_rate_degps.is_some()),
+        (Limit::Tilt, c.max_tilt_deg.is_some()),
+        (Limit::FinalDescent, c.final_descent_m.is_some()),
+    ];
+    on.into_iter()
+        .filter(|&(_, on)| on)
+        .map(|(l, _)| l)
+        .collect()
+}
+
+/// `c` with one limit alone switched on (with its own settings).
+pub fn only(c: &Constraints, limit: Limit) -> Constraints {
+    let mut one = Constraints::default();
+    match limit {
+        Limit::Cone => one.cone_half_angle_deg = c.cone_half_angle_deg,
+        Limit::PitchRate => one.max_pitch_rate_degps = c.max_pitch_rate_degps,
+        Limit::Tilt => {
+            one.max_tilt_deg = c.max_tilt_deg;
+            one.tilt_below_m = c.tilt_below_m;
+        }
+        Limit::FinalDescent => {
+            one.final_descent_m = c.final_descent_m;
+            one.final_descent_lateral_mps = c.final_descent_lateral_mps;
+        }
+    }
+    one
 }
 
 /// The worst row of a state: (row index, g), or None without rows.
@@ -390,6 +423,33 @@ mod tests {
         assert!(at(92.0, 10.0) <= 0.0 && at(92.0, 10.1) > 0.0);
         // 50 m above h, 59° is allowed and 61° is not.
         assert!(at(150.0, 59.0) < 0.0 && at(150.0, 61.0) > 0.0);
+    }
+
+    /// `only` keeps one limit with its own settings; `limits` names them.
+    #[test]
+    fn one_limit_alone() {
+        let c = constrained().constraints;
+        assert_eq!(
+            limits(&c),
+            vec![
+                Limit::Cone,
+                Limit::PitchRate,
+                Limit::Tilt,
+                Limit::FinalDescent
+            ]
+        );
+        for l in limits(&c) {
+            let one = only(&c, l);
+            assert_eq!(limits(&one), vec![l]);
+            let s = Scenario {
+                constraints: one,
+                ..constrained()
+            };
+            assert!(rows(&s).iter().all(|r| r.limit == l));
+            assert_eq!(rows(&s).len(), 2);
+        }
+        assert_eq!(only(&c, Limit::Tilt).tilt_below_m, c.tilt_below_m);
+        assert!(limits(&Constraints::default()).is_empty());
     }
 
     /// The cone's rows: inside, on and outside, about the pad.
