@@ -83,13 +83,15 @@ typedef enum bf_status {
    */
   BF_STATUS_NON_PHYSICAL = 1,
   /*
-   No trajectory was found from this state (a local infeasibility of
-   the method; not a proof).
+   No trajectory exists from this state, by a certificate: the
+   vertical stopping bound, the propellant bound, or an initial state
+   outside an operational limit (the message says which).
    */
   BF_STATUS_INFEASIBLE = 2,
   /*
-   The iteration budget or the wall-clock budget was spent: the best
-   iterate is returned.
+   The iteration budget or the wall-clock budget was spent, or the
+   method stopped locally infeasible (no trajectory was found, which
+   is not a proof that none exists): the best iterate is returned.
    */
   BF_STATUS_NOT_CONVERGED = 3,
   /*

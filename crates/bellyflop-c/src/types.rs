@@ -54,11 +54,13 @@ pub enum bf_status {
     /// Converged, but the relaxation is not tight or the thrust points
     /// backwards.
     NonPhysical = 1,
-    /// No trajectory was found from this state (a local infeasibility of
-    /// the method; not a proof).
+    /// No trajectory exists from this state, by a certificate: the
+    /// vertical stopping bound, the propellant bound, or an initial state
+    /// outside an operational limit (the message says which).
     Infeasible = 2,
-    /// The iteration budget or the wall-clock budget was spent: the best
-    /// iterate is returned.
+    /// The iteration budget or the wall-clock budget was spent, or the
+    /// method stopped locally infeasible (no trajectory was found, which
+    /// is not a proof that none exists): the best iterate is returned.
     NotConverged = 3,
     /// The inner solver failed.
     SolverFailed = 4,

@@ -144,7 +144,7 @@ fn too_low_to_stop_is_infeasible_with_a_reason() {
     assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
     assert!(
         sol.message.starts_with(
-            "no trajectory exists (certified before solving by the vertical stopping bound)"
+            "no trajectory exists (certified from the initial state by the vertical stopping bound)"
         ),
         "{}",
         sol.message

@@ -389,7 +389,8 @@ static void constraints_from_toml(size_t n_nodes) {
         }
         /* 8 of 10 solve here; the last two, 104 and 140 m above the pad
          * where the cone is 20-27 m wide, stall in the restoration phase
-         * ("locally infeasible") and keep the old plan. */
+         * (not_converged: "locally infeasible", not a proof) and keep the
+         * old plan. */
         CHECK(replans == 10 && solved >= 7, "%d of %d cone re-plans solved", solved, replans);
         CHECK(solved_inside == solved, "%d of %d solved re-plans inside the cone at their nodes",
               solved_inside, solved);

@@ -20,8 +20,8 @@ use crate::input::scenario::{InitialState, Scenario};
 use crate::input::settings::{Method, SolverSettings};
 use crate::method::observer::Observer;
 use crate::method::{self, Replan, Solver, Start};
-use crate::problem::constraints;
 use crate::problem::dynamics::{ix, NX};
+use crate::problem::{constraints, feasibility};
 use crate::solution::{Solution, Status};
 use crate::verify::path::LIMIT_TOLERANCE;
 
@@ -102,6 +102,7 @@ impl Planner {
         } = self;
         solver.solve_into(scenario, settings, Start::StraightLine, observer, out);
         hold_limits_at_nodes(&self.scenario, out);
+        infeasible_only_with_proof(&self.scenario, out);
         self.adopt_into(out);
     }
 
@@ -192,6 +193,7 @@ impl Planner {
         let Some(current) = plan.as_ref() else {
             *out = solver.solve(scenario, settings, Start::StraightLine, observer);
             hold_limits_at_nodes(&self.scenario, out);
+            infeasible_only_with_proof(&self.scenario, out);
             self.adopt_into(out);
             return Ok(());
         };
@@ -204,6 +206,7 @@ impl Planner {
         };
         solver.solve_into(scenario, settings, Start::Replan(replan), observer, out);
         hold_limits_at_nodes(&self.scenario, out);
+        infeasible_only_with_proof(&self.scenario, out);
         self.adopt_into(out);
         Ok(())
     }
@@ -276,13 +279,28 @@ fn hold_limits_at_nodes(scenario: &Scenario, out: &mut Solution) {
         e.node += 1;
         out.status = Status::NonPhysical;
         out.message = format!(
-            "the {} answer breaks {} at node {} by {:.4} {} (it does not hold that limit at its nodes)",
+            "the {} answer breaks {} at node {} by {:.4} {}, beyond the planner's tolerance",
             out.method.as_str(),
             e.limit.describe(),
             e.node,
             e.excess,
             e.limit.unit()
         );
+    }
+}
+
+/// A method that stops locally infeasible has found no trajectory, which
+/// is not a proof that none exists: as in the pipeline's step 2, the
+/// answer is `infeasible` only with a certificate
+/// ([`feasibility::certify`], its message), and `not_converged` otherwise,
+/// with the method's reason. Allocates only on the certificate.
+fn infeasible_only_with_proof(scenario: &Scenario, out: &mut Solution) {
+    if out.status != Status::Infeasible {
+        return;
+    }
+    match feasibility::certify(scenario) {
+        Some(certificate) => out.message = certificate.to_string(),
+        None => out.status = Status::NotConverged,
     }
 }
 
@@ -357,6 +375,36 @@ mod tests {
         assert_eq!(sol.status, Status::NonPhysical);
         assert!(
             sol.message.contains("the approach cone") && sol.message.contains("at node"),
+            "{}",
+            sol.message
+        );
+    }
+    /// A method that stops locally infeasible gives `not_converged` from
+    /// the planner, as from the pipeline; `infeasible` needs a certificate.
+    /// A 10° cone about the pad holds the paper's initial state but not its
+    /// flip (IPOPT: infeasible too, without a proof); 100 m up at the
+    /// paper's speed the stopping bound proves it.
+    #[test]
+    fn the_planner_claims_infeasible_only_with_a_certificate() {
+        let direct = SolverSettings {
+            method: Method::Direct,
+            ..SolverSettings::default()
+        };
+        let mut coned = Scenario::paper();
+        coned.constraints.cone_half_angle_deg = Some(10.0);
+        let sol = Planner::new(coned, direct.clone()).cold(&mut Silent);
+        assert_eq!(sol.status, Status::NotConverged, "{}", sol.message);
+        assert!(
+            sol.message.contains("locally infeasible"),
+            "{}",
+            sol.message
+        );
+        let mut low = Scenario::paper();
+        low.initial.z_m = 100.0;
+        let sol = Planner::new(low, direct).cold(&mut Silent);
+        assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
+        assert!(
+            sol.message.contains("vertical stopping bound"),
             "{}",
             sol.message
         );

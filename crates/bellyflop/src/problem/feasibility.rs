@@ -120,12 +120,12 @@ impl fmt::Display for Certificate {
         match self {
             Certificate::Altitude(b) => write!(
                 f,
-                "no trajectory exists (certified before solving by the vertical stopping bound): descending at {:.1} m/s with {:.1} m above the landing altitude, even T_max at the least possible mass with the largest possible drag needs at least {:.1} m to slow the descent to {:.1} m/s",
+                "no trajectory exists (certified from the initial state by the vertical stopping bound): descending at {:.1} m/s with {:.1} m above the landing altitude, even T_max at the least possible mass with the largest possible drag needs at least {:.1} m to slow the descent to {:.1} m/s",
                 b.descent_rate_mps, b.available_m, b.distance_m, b.final_descent_rate_mps
             ),
             Certificate::Propellant(b) => write!(
                 f,
-                "no trajectory exists (certified before solving by the propellant bound): the propellant lasts at most {:.2} s even at T_min, and the descent at {:.1} m/s cannot be slowed to {:.1} m/s within that time by the thrust impulse the propellant gives with the largest possible drag",
+                "no trajectory exists (certified from the initial state by the propellant bound): the propellant lasts at most {:.2} s even at T_min, and the descent at {:.1} m/s cannot be slowed to {:.1} m/s within that time by the thrust impulse the propellant gives with the largest possible drag",
                 b.burn_time_max_s, b.descent_rate_mps, b.final_descent_rate_mps
             ),
             Certificate::InitialState(v) => write!(
