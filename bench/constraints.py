@@ -14,10 +14,13 @@ grid: a row above 1e-3 of its scale (the flight check's tolerance, 1 mm in
 the cone) is a violation. It also checks the landing (1e-3 m, 1e-3 m/s)
 and the ground, and reports per limit: how many answers it changes (final
 mass moved by more than 0.05 kg), their fuel cost (median, worst), the
-statuses, and the solve time against the unconstrained default.
+statuses, and the solve time against the unconstrained default; and on the
+states left `not_converged`, where the answer's `limit_evidence` says the
+limits cut.
 
     bench/reference/.venv/bin/python bench/constraints.py              # 150 states
     bench/reference/.venv/bin/python bench/constraints.py --box 20 --table
+    bench/reference/.venv/bin/python bench/constraints.py --write /tmp/limits   # the scenario files only
 """
 import argparse
 import json
@@ -115,7 +118,19 @@ def main():
     ap.add_argument("--bin", default=str(BIN))
     ap.add_argument("--table", action="store_true", help="one line per state and limit")
     ap.add_argument("--save", metavar="JSON")
+    ap.add_argument("--write", metavar="DIR",
+                    help="only write each state's scenario with each limit, DIR/<state>_<limit>.toml, and stop "
+                         "(the inputs of a fine reference: bench/reference/nlp_reference.py --scenario ...)")
     args = ap.parse_args()
+    if args.write:
+        out = Path(args.write)
+        out.mkdir(parents=True, exist_ok=True)
+        for name, state in states(args.box, args.wide, args.seed):
+            base = scenario_text(state, 20)
+            (out / f"{name}_free.toml").write_text(base)
+            for limit, table in LIMITS.items():
+                (out / f"{name}_{limit}.toml").write_text(with_limits(base, table))
+        return
     results = []
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "state.toml"
@@ -127,8 +142,9 @@ def main():
             for limit, table in LIMITS.items():
                 text = with_limits(base, table)
                 sol = solve(args.bin, path, text)
-                r = dict(status=sol["status"], mf=sol["final_mass_kg"], ms=sol["solve_time_ms"],
-                         message=sol.get("message", "")[:300])
+                r = dict(status=sol["status"], method=sol["method"], mf=sol["final_mass_kg"],
+                         ms=sol["solve_time_ms"], message=sol.get("message", "")[:300],
+                         evidence=sol.get("limit_evidence"))
                 if sol["status"] == "solved":
                     r.update(judge(table, tomllib.loads(text), sol["controls_flown"]))
                 row[limit] = r
@@ -162,6 +178,25 @@ def main():
               f"| {len(changed)} | {np.median(cost) if cost else 0:.2f} / {max(cost) if cost else 0:.2f} "
               f"| {sum(not x['ok'] for _, x in solved)} | {ms[n // 2]:.1f} / {ms[int(0.95 * (n - 1))]:.1f} "
               f"| {free_ms[n // 2]:.1f} / {free_ms[int(0.95 * (n - 1))]:.1f} |")
+    print()
+    print("Where the limits cut, on the states left not_converged (`limit_evidence`):")
+    print("| limit | not_converged | unconstrained solved | its answer breaks (states per limit) "
+          "| alone unsolved (states per limit) |")
+    print("|---|---|---|---|---|")
+    for limit in LIMITS:
+        es = [r[limit].get("evidence") for r in results if r[limit]["status"] == "not_converged"]
+        if not es:
+            continue
+        broken, alone = {}, {}
+        for e in es:
+            for b in (e or {}).get("broken", []):
+                broken[b["limit"]] = broken.get(b["limit"], 0) + 1
+            for a in (e or {}).get("alone", []):
+                if not a["solved"]:
+                    alone[a["limit"]] = alone.get(a["limit"], 0) + 1
+        fmt = lambda d: ", ".join(f"{k} {v}" for k, v in sorted(d.items())) or "-"
+        print(f"| {limit} | {len(es)} | {sum(bool(e and e['unconstrained_solved']) for e in es)} "
+              f"| {fmt(broken)} | {fmt(alone) if limit == 'all' else 'n/a'} |")
 
 
 if __name__ == "__main__":
