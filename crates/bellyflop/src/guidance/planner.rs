@@ -20,6 +20,7 @@ use crate::input::scenario::{InitialState, Scenario};
 use crate::input::settings::{Method, SolverSettings};
 use crate::method::observer::Observer;
 use crate::method::{self, Replan, Solver, Start};
+use crate::pipeline;
 use crate::problem::dynamics::{ix, NX};
 use crate::problem::{constraints, feasibility};
 use crate::solution::{Solution, Status};
@@ -290,17 +291,17 @@ fn hold_limits_at_nodes(scenario: &Scenario, out: &mut Solution) {
 }
 
 /// A method that stops locally infeasible has found no trajectory, which
-/// is not a proof that none exists: as in the pipeline's step 2, the
-/// answer is `infeasible` only with a certificate
-/// ([`feasibility::certify`], its message), and `not_converged` otherwise,
-/// with the method's reason. Allocates only on the certificate.
+/// is not a proof that none exists: the answer is `infeasible` only with a
+/// certificate ([`feasibility::certify`], its message), and otherwise
+/// `not_converged` with the method's reason, as the pipeline's step 2
+/// words it ([`pipeline::not_proven`]). Allocates only then.
 fn infeasible_only_with_proof(scenario: &Scenario, out: &mut Solution) {
     if out.status != Status::Infeasible {
         return;
     }
     match feasibility::certify(scenario) {
         Some(certificate) => out.message = certificate.to_string(),
-        None => out.status = Status::NotConverged,
+        None => pipeline::not_proven(scenario, out),
     }
 }
 

@@ -146,12 +146,13 @@ fn solve_with(
         }
         None => {
             let mut solver = method::solver(settings.method);
-            let sol = if refining {
+            let mut sol = if refining {
                 refine::solve(&mut *solver, scenario, settings, observer)
             } else {
                 solver.solve(scenario, settings, Start::StraightLine, observer)
             };
-            not_proven(scenario, sol)
+            not_proven(scenario, &mut sol);
+            sol
         }
     };
     let raw = (sol.status == Status::Solved && settings.polish).then(|| {
@@ -233,8 +234,10 @@ impl Case {
 }
 
 /// Step 2 of [`solve`]: a method's local infeasibility, without a
-/// certificate, is `not_converged`, with the method's reason.
-fn not_proven(scenario: &Scenario, mut sol: Solution) -> Solution {
+/// certificate, is `not_converged`, with the method's reason. The closed
+/// loop's planner, which checks the certificate after its solve, calls it
+/// too.
+pub fn not_proven(scenario: &Scenario, sol: &mut Solution) {
     if sol.status == Status::Infeasible {
         sol.status = Status::NotConverged;
         sol.message = format!(
@@ -244,5 +247,4 @@ fn not_proven(scenario: &Scenario, mut sol: Solution) -> Solution {
             sol.message
         );
     }
-    sol
 }
