@@ -44,7 +44,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from envelope import BIN, PY, REF, ROOT, scenario_text, states  # noqa: E402
+from envelope import BIN, PY, REF, ROOT, SOLVER_LINES, scenario_text, states, with_solver_lines  # noqa: E402
 
 
 def verdict(o):
@@ -155,7 +155,10 @@ def main():
     ap.add_argument("--fine", metavar="JSON", help="cache of the fine-mesh reference's answers")
     ap.add_argument("--bin", default=str(BIN), help="the bellyflop binary to time (another build, same states)")
     ap.add_argument("--fine-only", action="store_true", help="compute the fine reference (into --fine) and stop")
+    ap.add_argument("--solver", action="append", default=[], metavar="KEY=VALUE",
+                    help="a line for the scenarios' [solver] table, e.g. --solver 'polish_hessian = true'")
     args = ap.parse_args()
+    SOLVER_LINES.extend(args.solver)
     if not BIN.exists():
         subprocess.run(["cargo", "build", "--release"], cwd=ROOT, check=True)
     cases = [] if args.no_paper else [("paper", None)]
@@ -165,7 +168,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "state.toml"
         for name, state in cases:
-            text = (ROOT / "scenarios" / "paper.toml").read_text() if state is None else scenario_text(state, 20)
+            text = with_solver_lines((ROOT / "scenarios" / "paper.toml").read_text()) if state is None else scenario_text(state, 20)
             path.write_text(text)
             sc = tomllib.loads(text)
             # Keyed by the state itself: box and wide states share one seeded

@@ -55,6 +55,12 @@ def states(box_count, wide_count, seed):
 
 
 DIRECT_LINES = []
+# Lines for the scenario's [solver] table (its last table in paper.toml).
+SOLVER_LINES = []
+
+
+def with_solver_lines(s):
+    return s + "".join(f"{line}\n" for line in SOLVER_LINES)
 
 
 def scenario_text(state, nodes):
@@ -64,6 +70,7 @@ def scenario_text(state, nodes):
         s = re.sub(rf"(?m)^{key} = .*", f"{key} = {val:.3f}", s, count=1)
     s = re.sub(r"(?m)^final_mass_guess_kg = .*", f"final_mass_guess_kg = {state[5] - 5000.0:.1f}", s, count=1)
     s = re.sub(r"(?m)^nodes = .*", f"nodes = {nodes}", s, count=1)
+    s = with_solver_lines(s)
     # [solver] is the file's last table, so a [solver.direct] table can follow.
     if DIRECT_LINES:
         s += "\n[solver.direct]\n" + "\n".join(DIRECT_LINES) + "\n"

@@ -277,6 +277,8 @@ pub const DOCS: &[Doc] = &[
         "Polish a solved collocation answer into controls that fly: per thrust arc a bound or a cubic, cubic nozzle angles, free durations, made to land and fuel-optimal by single shooting with exact sensitivities; the JSON publishes them as controls_flown. false (--fast) returns the raw collocation answer."),
     doc!("solver", "polish_repairs", "", Allowed::Count { lo: 0, hi: 10 },
         "Polishes on repaired arcs, at most: where the polished answer's switching function (its Pontryagin certificate, JSON optimality) contradicts a thrust arc, a short arc of the other bound is seeded there and the polish runs again, while each gains mass. 0 keeps the first structure: faster, and kilograms more fuel on some states."),
+    doc!("solver", "polish_hessian", "", Allowed::Flag,
+        "The polish's Newton mode: near the answer its QPs take the Lagrangian's exact Hessian through the integrator's steps (eigenvalues' magnitudes) beside the proximal term. Off by default: on 46 seeded envelope states it ends a median 0.16 kg short of the fine reference instead of 0.30, at about twice the time (BENCHMARKS.md, issue 35)."),
     doc!("solver", "landing_position_tolerance_m", "m", closed(1e-3, 1e6),
         "Largest landing position error |(x, z)(t_f) - (x_f, z_f)| of a solved answer when its controls (the flown ones when polished; else PCHIP through the nodes) are re-integrated by DOP853; beyond it the status is inaccurate (exit 9). Polished answers land within micrometres; the raw paper's case (--fast) lands 0.81 m off at N = 20; 1e6 turns the check off."),
     doc!("solver", "landing_velocity_tolerance_mps", "m/s", closed(1e-3, 1e4),

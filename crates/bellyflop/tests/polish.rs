@@ -129,3 +129,37 @@ fn after_a_failed_polish_the_remedy_is_more_nodes_not_the_polish() {
         sol.message
     );
 }
+
+/// The polish's Newton mode (`solver.polish_hessian`): on the paper's case
+/// it lands as the default does and ends at least as heavy, in fewer
+/// iterations (its QPs take the Lagrangian's exact Hessian near the end).
+#[test]
+fn the_newton_mode_lands_and_ends_at_least_as_heavy_in_fewer_iterations() {
+    let proximal = solve(Method::Direct, true);
+    let settings = SolverSettings {
+        polish_hessian: true,
+        ..SolverSettings::default()
+    };
+    let newton = bellyflop::solve(&Scenario::paper(), &settings, &mut Silent);
+    assert_eq!(newton.status, Status::Solved, "{}", newton.message);
+    let flown = newton.controls_flown.as_ref().unwrap();
+    let end = rk4_landing(&Scenario::paper(), flown);
+    let target = Scenario::paper().terminal.state_si();
+    assert!(
+        (end[0] - target[0]).hypot(end[1] - target[1]) < 1e-3,
+        "{end:?}"
+    );
+    assert!(
+        newton.final_mass_kg >= proximal.final_mass_kg - 1e-3,
+        "{} < {}",
+        newton.final_mass_kg,
+        proximal.final_mass_kg
+    );
+    let iterations = |s: &bellyflop::Solution| s.polish.as_ref().unwrap().iterations;
+    assert!(
+        iterations(&newton) < iterations(&proximal),
+        "{} vs {}",
+        iterations(&newton),
+        iterations(&proximal)
+    );
+}

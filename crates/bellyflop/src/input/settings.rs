@@ -195,6 +195,13 @@ pub struct SolverSettings {
     /// 0 keeps the first structure (faster, kilograms heavier in fuel on
     /// some states: BENCHMARKS.md, issue 35).
     pub polish_repairs: usize,
+    /// The polish's Newton mode ([`crate::polish`]): near the answer, its
+    /// QPs take the Lagrangian's exact Hessian through the RK4 steps
+    /// (made positive definite by its eigenvalues' magnitudes) beside the
+    /// proximal term. Default false: on 46 seeded envelope states it ends
+    /// a median 0.16 kg short of the fine reference instead of 0.30, at
+    /// about twice the time (BENCHMARKS.md, issue 35).
+    pub polish_hessian: bool,
     /// Largest re-integrated landing position error ‖(x, z)(t_f) − (x_f, z_f)‖
     /// of a `solved` answer \[m\] ([`crate::verify::accuracy`]); beyond it the status
     /// is `inaccurate`. Default 0.1 m: the polished answer lands within
@@ -237,6 +244,7 @@ impl Default for SolverSettings {
             terminal_lateral_weight: 0.0,
             polish: true,
             polish_repairs: 3,
+            polish_hessian: false,
             landing_position_tolerance_m: 0.1,
             landing_velocity_tolerance_mps: 0.05,
             refinement: RefinementSettings::default(),

@@ -207,7 +207,11 @@ fn fall_back(
 /// joins the message (the check names the miss if it demotes the answer).
 fn polish_answer(scenario: &Scenario, settings: &SolverSettings, sol: &mut Solution) {
     let clock = std::time::Instant::now();
-    let outcome = polish::polish(scenario, sol, settings.polish_repairs)
+    let options = polish::Options {
+        max_repairs: settings.polish_repairs,
+        hessian: settings.polish_hessian,
+    };
+    let outcome = polish::polish(scenario, sol, options)
         .map_err(|e| e.to_string())
         .and_then(|p| {
             let ms = p.report.time_ms;

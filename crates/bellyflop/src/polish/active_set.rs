@@ -20,7 +20,9 @@
 //! its cap, a row set it finds infeasible) is reported, and the polish then
 //! solves the same QP by the interior point.
 
-use crate::polish::qp::{scaled, validate, Answer, Problem, QpError, Row, Status};
+use crate::polish::qp::{
+    dense, dense_block, scaled, validate, Answer, Problem, QpError, Row, Status,
+};
 
 /// A row is violated when c·x − b < −VIOLATION·(1 + |b|) (rows scaled to
 /// a unit ∞-norm).
@@ -75,18 +77,61 @@ struct State {
 }
 
 impl State {
-    fn new(p: &[f64], q: &[f64], eq: Vec<Row>, le: Vec<Row>) -> Self {
+    /// The state at the unconstrained minimum x = −H⁻¹·q, H = diag(p) plus
+    /// the dense block: J = L⁻ᵀ for H = L·Lᵀ. None when H is not
+    /// numerically positive definite.
+    fn new(
+        p: &[f64],
+        dense: Option<&[f64]>,
+        q: &[f64],
+        eq: Vec<Row>,
+        le: Vec<Row>,
+    ) -> Option<Self> {
         let n = p.len();
         let mut j = vec![0.0; n * n];
-        for i in 0..n {
-            j[i + i * n] = 1.0 / p[i].sqrt();
-        }
+        let x = match dense_block(dense) {
+            None => {
+                for i in 0..n {
+                    j[i + i * n] = 1.0 / p[i].sqrt();
+                }
+                q.iter().zip(p).map(|(q, p)| -q / p).collect()
+            }
+            Some((block, nd)) => {
+                // H, column-major, its lower triangle.
+                let mut l = vec![0.0; n * n];
+                for i in 0..n {
+                    l[i * n + i] = p[i];
+                }
+                for c in 0..nd {
+                    for r in c..nd {
+                        l[c * n + r] += block[r * nd + c];
+                    }
+                }
+                if !dense::cholesky(&mut l, n) {
+                    return None;
+                }
+                let mut column = vec![0.0; n];
+                for c in 0..n {
+                    column.fill(0.0);
+                    column[c] = 1.0;
+                    dense::forward(&l, n, &mut column);
+                    // Column c of L⁻¹ is row c of J = L⁻ᵀ.
+                    for (k, v) in column.iter().enumerate() {
+                        j[c + k * n] = *v;
+                    }
+                }
+                let mut x: Vec<f64> = q.iter().map(|v| -v).collect();
+                dense::forward(&l, n, &mut x);
+                dense::backward(&l, n, &mut x);
+                x
+            }
+        };
         let (equalities, total) = (eq.len(), eq.len() + le.len());
-        State {
+        Some(State {
             n,
             rows: eq.into_iter().chain(le).collect(),
             equalities,
-            x: q.iter().zip(p).map(|(q, p)| -q / p).collect(),
+            x,
             j,
             r: vec![0.0; n * n],
             active: Vec::with_capacity(n),
@@ -97,7 +142,7 @@ impl State {
             z: vec![0.0; n],
             step: vec![0.0; n],
             dense: vec![0.0; n],
-        }
+        })
     }
 
     /// c·x − β of a normal at x.
@@ -322,7 +367,8 @@ impl Solver {
         let n = problem.p.len();
         let limit = CHANGES_PER_ROW * (n + eq.len() + le.len()) + 100;
         let equalities = eq.len();
-        let mut state = State::new(problem.p, problem.q, eq, le);
+        let mut state = State::new(problem.p, problem.dense, problem.q, eq, le)
+            .ok_or(QpError::NotStrictlyConvex)?;
         for row in 0..equalities {
             let rhs = state.rows[row].1;
             let plain = Normal { row, sign: 1.0 };
@@ -356,6 +402,7 @@ impl Solver {
     pub fn add(&mut self, le: &[Row]) -> Result<(), QpError> {
         let n = self.state.n;
         validate(&Problem {
+            dense: None,
             p: &vec![1.0; n],
             q: &vec![0.0; n],
             eq: &[],
@@ -426,6 +473,7 @@ mod tests {
             .collect();
         let eq = [((0..4).map(|i| (i, 1.0)).collect(), 0.5)];
         let a = solve(&Problem {
+            dense: None,
             p: &p,
             q: &q,
             eq: &eq,
@@ -439,6 +487,99 @@ mod tests {
         assert!((a.y[0] - -0.2).abs() < 1e-12, "{:?}", a.y);
         // x₁ ≤ 1 holds with multiplier c₁ − y − 1 = 2 + 0.2 − 1.
         assert!((a.z[2] - 1.2).abs() < 1e-12, "{:?}", a.z);
+    }
+
+    /// With a dense curvature block (the polish's Newton mode), random
+    /// feasible QPs meet their KKT conditions (stationarity with the block)
+    /// and agree with the interior point, which takes the same block.
+    #[test]
+    fn a_dense_block_gives_the_interior_points_answer() {
+        let mut rng = ChaCha8Rng::seed_from_u64(35);
+        for case in 0..100 {
+            let n = rng.gen_range(3..30);
+            let nd = rng.gen_range(1..=n);
+            // B = CᵀC + 0.01·I on the first nd variables, and its mirror.
+            let c: Vec<f64> = (0..nd * nd).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            let mut block = vec![0.0; nd * nd];
+            for r in 0..nd {
+                for k in 0..nd {
+                    block[r * nd + k] = (0..nd).map(|l| c[l * nd + r] * c[l * nd + k]).sum();
+                }
+                block[r * nd + r] += 0.01;
+            }
+            let p = vec![1e-3; n];
+            let q: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            let eq: Vec<Row> = vec![((0..n).map(|i| (i, 1.0)).collect(), 0.1)];
+            let mut le: Vec<Row> = Vec::new();
+            for i in 0..n {
+                le.push((vec![(i, 1.0)], 0.3));
+                le.push((vec![(i, -1.0)], 0.3));
+            }
+            let problem = Problem {
+                dense: Some(&block),
+                p: &p,
+                q: &q,
+                eq: &eq,
+                le: &le,
+            };
+            let ours = solve(&problem).unwrap_or_else(|e| panic!("case {case}: {e}"));
+            let theirs = crate::polish::qp::solve(&problem).unwrap();
+            let mut grad: Vec<f64> = (0..n).map(|i| p[i] * ours.x[i] + q[i]).collect();
+            for r in 0..nd {
+                grad[r] += (0..nd).map(|k| block[r * nd + k] * ours.x[k]).sum::<f64>();
+            }
+            for ((terms, b), z) in le.iter().zip(&ours.z) {
+                let v: f64 = terms.iter().map(|&(c, a)| a * ours.x[c]).sum();
+                assert!(v <= b + 1e-9, "case {case}: {v} > {b}");
+                assert!(
+                    *z >= 0.0 && (*z == 0.0 || (v - b).abs() < 1e-9),
+                    "case {case}"
+                );
+                for &(c, a) in terms {
+                    grad[c] += z * a;
+                }
+            }
+            for &(c, a) in &eq[0].0 {
+                grad[c] += ours.y[0] * a;
+            }
+            for (i, g) in grad.iter().enumerate() {
+                assert!(g.abs() < 1e-9, "case {case}: stationarity {g} at {i}");
+            }
+            // The KKT conditions above prove ours optimal; the interior
+            // point, whose x is looser (its active rows stop about gap/z
+            // inside their bounds, its flat directions to its residual over
+            // their curvature), reaches the same objective to its tolerance,
+            // never a lower one.
+            let objective = |x: &[f64]| {
+                let mut v: f64 = (0..n).map(|i| 0.5 * p[i] * x[i] * x[i] + q[i] * x[i]).sum();
+                for r in 0..nd {
+                    for k in 0..nd {
+                        v += 0.5 * x[r] * block[r * nd + k] * x[k];
+                    }
+                }
+                v
+            };
+            let (a, b) = (objective(&ours.x), objective(&theirs.x));
+            assert!(
+                a <= b + 1e-9 && b - a < 1e-6 * (1.0 + b.abs()),
+                "case {case}: {a} vs {b}"
+            );
+        }
+    }
+
+    /// A dense block that is not positive definite is an error, not a
+    /// wrong answer.
+    #[test]
+    fn an_indefinite_dense_block_is_an_error() {
+        let block = [1.0, 0.0, 0.0, -2.0];
+        let problem = Problem {
+            dense: Some(&block),
+            p: &[1e-3, 1e-3],
+            q: &[0.0, 1.0],
+            eq: &[],
+            le: &[],
+        };
+        assert_eq!(solve(&problem).unwrap_err(), QpError::NotStrictlyConvex);
     }
 
     /// Random feasible QPs of the polish's shape against the interior
@@ -495,6 +636,7 @@ mod tests {
                 le.push((vec![(i, -1.0)], 1.0));
             }
             let problem = Problem {
+                dense: None,
                 p: &p,
                 q: &q,
                 eq: &eq,
@@ -578,6 +720,7 @@ mod tests {
             let le: Vec<Row> = (0..3 * n).map(|k| row(0.01 * k as f64)).collect();
             let split = le.len() / 2;
             let whole = Problem {
+                dense: None,
                 p: &p,
                 q: &q,
                 eq: &eq,
@@ -585,6 +728,7 @@ mod tests {
             };
             let anew = solve(&whole).unwrap_or_else(|e| panic!("case {case}: {e}"));
             let mut solver = Solver::new(&Problem {
+                dense: None,
                 le: &le[..split],
                 ..whole
             })
@@ -617,6 +761,7 @@ mod tests {
     fn an_infeasible_qp_is_an_error() {
         let le: Vec<Row> = vec![(vec![(0, 1.0)], -1.0), (vec![(0, -1.0)], -1.0)];
         let e = solve(&Problem {
+            dense: None,
             p: &[1.0],
             q: &[0.0],
             eq: &[],

@@ -26,6 +26,7 @@ pub mod adjoint;
 pub mod arcs;
 pub mod certificate;
 pub mod ground;
+pub mod hessian;
 pub mod limits;
 pub mod publish;
 pub mod qp;
@@ -142,6 +143,17 @@ pub struct Polished {
     pub optimality: Optimality,
 }
 
+/// The polish's settings (`[solver]` in a scenario).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Options {
+    /// Polishes on repaired arcs after the first, at most
+    /// (`solver.polish_repairs`).
+    pub max_repairs: usize,
+    /// The Newton mode near the answer (the polish's `Newton`,
+    /// `solver.polish_hessian`).
+    pub hessian: bool,
+}
+
 /// What stays fixed during a polish.
 #[derive(Clone)]
 struct Problem {
@@ -154,6 +166,8 @@ struct Problem {
     dry_mass_kg: f64,
     /// The operational constraints' rows (issue 37; empty without any).
     limits: Vec<Row>,
+    /// The Newton mode ([`Newton`], `solver.polish_hessian`).
+    hessian: bool,
 }
 
 /// A shot's end, its path violation ([`ground::violation`]) and the steps
@@ -233,6 +247,20 @@ impl Problem {
         }
     }
 
+    /// The Lagrangian's Hessian in the scaled step, S·∇²Λ·S, at p with the
+    /// multipliers of the last QP (Λ as in [`switching`]).
+    fn curvature(&self, p: &[f64], last: &Multipliers) -> Vec<f64> {
+        let mut h = hessian::hessian(&self.model, &self.layout, self.y0, p, lambda_f(last));
+        let s = &self.scales.0;
+        let n = s.len();
+        for r in 0..n {
+            for c in 0..n {
+                h[r * n + c] *= s[r] * s[c];
+            }
+        }
+        h
+    }
+
     /// p + S·Δp̂.
     fn moved(&self, p: &[f64], dp: &[f64]) -> Vec<f64> {
         p.iter()
@@ -247,13 +275,13 @@ impl Problem {
 /// polish on the collocation's arcs, certify ([`certificate`]), and while
 /// the switching function contradicts an arc, polish again on the repaired
 /// arcs ([`repair`]), keeping the heavier answer that lands (at most
-/// `max_repairs` times, `solver.polish_repairs`, and only while each
-/// gains).
+/// `options.max_repairs` times, and only while each gains).
 pub fn polish(
     scenario: &Scenario,
     sol: &Solution,
-    max_repairs: usize,
+    options: Options,
 ) -> Result<Polished, PolishError> {
+    let max_repairs = options.max_repairs;
     let clock = std::time::Instant::now();
     let model = Model::new(&scenario.vehicle, &scenario.environment);
     let s0 = scenario.initial.state_si();
@@ -270,6 +298,7 @@ pub fn polish(
         model,
         layout,
         scales,
+        hessian: options.hessian,
     };
     let mut report = PolishReport::default();
     let mut best = match run(&problem, &p, &mut report) {
@@ -424,6 +453,7 @@ fn project(problem: &Problem, p: &[f64], qp_iterations: &mut u32) -> Result<Vec<
         mass_gradient: &zeros,
         trust_radius: 1e3,
         proximal_weight: 1.0,
+        hessian: None,
         path: &[],
     };
     let step = subproblem::solve(&qp, p.len())
@@ -454,14 +484,14 @@ fn iterate(
         ..
     } = report;
     let qp_iterations = &mut *qp_iterations;
-    let mut weight = PROXIMAL_INITIAL;
-    let mut floor = PROXIMAL_MIN;
+    let (mut weight, mut floor) = (PROXIMAL_INITIAL, PROXIMAL_MIN);
     let mut sens = problem.sensitivity(p);
     let mut watch: Vec<usize> = Vec::new();
     let mut iteration = 0;
     let mut last = Multipliers::default();
     let mut converged = false;
     let mut nu = MERIT_WEIGHT_MIN;
+    let mut newton = Newton::new(problem.hessian);
     while iteration < MAX_ITERATIONS {
         iteration += 1;
         let shot = problem.shot_of(&sens);
@@ -473,10 +503,18 @@ fn iterate(
         let path = problem.path_rows(&sens, &watch);
         let before_qp = *qp_iterations;
         let residual: f64 = problem.residual(&y).iter().map(|r| r.abs()).sum();
+        newton.update(
+            problem,
+            p,
+            (residual, shot.path),
+            &last,
+            (&mut weight, &mut floor),
+        );
         let ask = Linearized {
             terminal: &terminal,
             gradient: &gradient,
             weight,
+            hessian: newton.matrix(),
             path: &path,
         };
         let tries = 2 * usize::from(residual < NEAR_RESIDUAL);
@@ -489,10 +527,13 @@ fn iterate(
         nu = merit_weight(nu, &step.multipliers);
         let phi = problem.merit(&shot, nu);
         let gain: f64 = gradient.iter().zip(&step.dp).map(|(g, d)| g * d).sum();
-        let predicted = phi
-            - (-y[6] / MASS_SCALE_KG - gain
-                + penalty(nu, linear_residual(&terminal, &step.dp))
-                + SLACK_WEIGHT * linear_path(shot.path, &path, &step.dp));
+        let model = MeritModel {
+            shot: &shot,
+            terminal: &terminal,
+            path: &path,
+            curvature: newton.matrix(),
+        };
+        let predicted = phi - model.merit(gain, nu, &step.dp);
         history.push(PolishIteration {
             iteration: *total + iteration,
             final_mass_kg: y[6],
@@ -527,6 +568,7 @@ fn iterate(
         if rho > 0.0 {
             *p = candidate;
             sens = problem.sensitivity(p);
+            newton.moved();
         } else if watch_new(&mut watch, tried.as_ref().map_or(&[][..], |s| &s.below))
             && violates(&problem.path_rows(&sens, &watch), &step.dp)
         {
@@ -536,23 +578,35 @@ fn iterate(
             // this step again: measured, a whole iteration repeated.)
             continue;
         }
-        (weight, floor) = next_weight(weight, floor, rho);
+        (weight, floor) = next_weight(weight, floor, rho, newton.least_weight());
         if weight > PROXIMAL_MAX {
             break;
         }
     }
-    let (terminal, _) = linearize(problem, &sens);
-    let path = problem.path_rows(&sens, &watch);
-    let shot = correct(
+    let shot = corrected(problem, &sens, &watch, p, qp_iterations);
+    *total += iteration;
+    Ok((iteration, shot, last, converged))
+}
+
+/// The landing corrections ([`correct`]) from p, linearized at its
+/// sensitivities `sens` with the path rows of the watched steps.
+fn corrected(
+    problem: &Problem,
+    sens: &shooting::Sensitivity,
+    watch: &[usize],
+    p: &mut Vec<f64>,
+    qp_iterations: &mut u32,
+) -> Shot {
+    let (terminal, _) = linearize(problem, sens);
+    let path = problem.path_rows(sens, watch);
+    correct(
         problem,
         &terminal,
         &path,
         p,
-        problem.shot_of(&sens),
+        problem.shot_of(sens),
         qp_iterations,
-    );
-    *total += iteration;
-    Ok((iteration, shot, last, converged))
+    )
 }
 
 /// Whether the iteration stops at p: the landing residual, the path
@@ -592,12 +646,127 @@ const ACTIVE_PATH_MULTIPLIER: f64 = 1e-6;
 /// = ∂Λ/∂y(t_f), Λ = −m_f/M + Σ μ_i·(y_i − y_f,i)/R_i at the last QP's
 /// multipliers.
 fn switching(problem: &Problem, p: &[f64], last: &Multipliers) -> adjoint::Switching {
+    adjoint::switching(
+        &problem.model,
+        &problem.layout,
+        problem.y0,
+        p,
+        lambda_f(last),
+    )
+}
+
+/// λ(t_f) = ∂Λ/∂y(t_f), Λ = −m_f/M + Σ μ_i·(y_i − y_f,i)/R_i.
+fn lambda_f(last: &Multipliers) -> [f64; 7] {
     let mut lambda_f = [0.0; 7];
     for i in 0..6 {
         lambda_f[i] = last.terminal[i] / RESIDUAL_SCALE[i];
     }
     lambda_f[6] = -1.0 / MASS_SCALE_KG;
-    adjoint::switching(&problem.model, &problem.layout, problem.y0, p, lambda_f)
+    lambda_f
+}
+
+/// The QP's model of the merit at a step from the shot: the mass gained
+/// to first order, the curvature's term (in the Newton mode), the
+/// linearized landing residual and path violation.
+struct MeritModel<'a> {
+    shot: &'a Shot,
+    terminal: &'a Terminal,
+    path: &'a [(Vec<(usize, f64)>, f64)],
+    curvature: Option<&'a [f64]>,
+}
+
+impl MeritModel<'_> {
+    /// The merit predicted after the step Δp̂ that gains `gain` (scaled).
+    fn merit(&self, gain: f64, nu: f64, dp: &[f64]) -> f64 {
+        let quadratic = self.curvature.map_or(0.0, |h| 0.5 * quadratic_form(h, dp));
+        -self.shot.y[6] / MASS_SCALE_KG - gain
+            + quadratic
+            + penalty(nu, linear_residual(self.terminal, dp))
+            + SLACK_WEIGHT * linear_path(self.shot.path, self.path, dp)
+    }
+}
+
+/// The residual Σ|r̂| below which the Newton mode ([`Problem::hessian`])
+/// starts (1 cm), with no path violation: farther out the Lagrangian's
+/// Hessian, at multipliers of a landing not yet met, is a poor model, and
+/// the first steps are the proximal ones'.
+const NEWTON_RESIDUAL: f64 = 1e-2;
+/// The proximal weight with which the Newton mode starts, and its least.
+const NEWTON_PROXIMAL_INITIAL: f64 = 1e-2;
+const NEWTON_PROXIMAL_MIN: f64 = 1e-6;
+/// The least eigenvalue of the QPs' curvature in the Newton mode
+/// ([`hessian::convexified`]).
+const EIGENVALUE_FLOOR: f64 = 1e-8;
+
+/// The Newton mode of [`iterate`] (`solver.polish_hessian`): once the shot
+/// is near, the QPs' curvature is the Lagrangian's Hessian at the current
+/// point and the last QP's multipliers ([`hessian`]), made positive
+/// definite by its eigenvalues' magnitudes, beside the proximal weight,
+/// which then starts again from [`NEWTON_PROXIMAL_INITIAL`].
+struct Newton {
+    enabled: bool,
+    started: bool,
+    matrix: Option<Vec<f64>>,
+}
+
+impl Newton {
+    fn new(enabled: bool) -> Self {
+        Newton {
+            enabled,
+            started: false,
+            matrix: None,
+        }
+    }
+
+    /// At p with the shot's (residual, path violation): start the mode
+    /// when near, and compute the curvature where p moved.
+    fn update(
+        &mut self,
+        problem: &Problem,
+        p: &[f64],
+        (residual, path): (f64, f64),
+        last: &Multipliers,
+        (weight, floor): (&mut f64, &mut f64),
+    ) {
+        if !self.enabled || residual >= NEWTON_RESIDUAL || path > PATH_TOLERANCE {
+            return;
+        }
+        if !self.started {
+            self.started = true;
+            *weight = NEWTON_PROXIMAL_INITIAL;
+            *floor = NEWTON_PROXIMAL_MIN;
+        }
+        if self.matrix.is_none() {
+            self.matrix = hessian::convexified(&problem.curvature(p, last), EIGENVALUE_FLOOR);
+        }
+    }
+
+    /// The QPs' curvature, where the mode is on.
+    fn matrix(&self) -> Option<&[f64]> {
+        self.matrix.as_deref()
+    }
+
+    /// p moved: its curvature is computed again at the next iteration.
+    fn moved(&mut self) {
+        self.matrix = None;
+    }
+
+    /// The least proximal weight.
+    fn least_weight(&self) -> f64 {
+        if self.started {
+            NEWTON_PROXIMAL_MIN
+        } else {
+            PROXIMAL_MIN
+        }
+    }
+}
+
+/// xᵀ·H·x for a square H (row-major).
+fn quadratic_form(h: &[f64], x: &[f64]) -> f64 {
+    let n = x.len();
+    (0..n)
+        .map(|r| x[r] * (0..n).map(|c| h[r * n + c] * x[c]).sum::<f64>())
+        .sum()
 }
 
 /// The certificate ([`certificate`]) of the switching functions `sw`,
@@ -699,6 +868,8 @@ struct Linearized<'a> {
     terminal: &'a Terminal,
     gradient: &'a [f64],
     weight: f64,
+    /// The Lagrangian's Hessian in Δp̂ ([`hessian`]), or None.
+    hessian: Option<&'a [f64]>,
     path: &'a [(Vec<(usize, f64)>, f64)],
 }
 
@@ -716,6 +887,7 @@ fn qp(
             mass_gradient: ask.gradient,
             trust_radius: BOX,
             proximal_weight: ask.weight,
+            hessian: ask.hessian,
             path: ask.path,
         },
         p.len(),
@@ -730,12 +902,12 @@ fn qp(
 /// the floor, a creeping loop cycled accept (halve), reject (×4), accept:
 /// one QP and one shot in three were thrown away (the polish's history on
 /// the seeded envelope).
-fn next_weight(weight: f64, floor: f64, rho: f64) -> (f64, f64) {
+fn next_weight(weight: f64, floor: f64, rho: f64, least: f64) -> (f64, f64) {
     if rho < RHO_SHRINK {
         let floor = if rho <= 0.0 { 2.0 * weight } else { floor };
         (weight * 4.0, floor)
     } else {
-        let floor = (floor * FLOOR_DECAY).max(PROXIMAL_MIN);
+        let floor = (floor * FLOOR_DECAY).max(least);
         let weight = if rho > RHO_GROW {
             (weight / 2.0).max(floor)
         } else {
@@ -832,6 +1004,7 @@ fn correct(
             terminal: &chord,
             gradient: &zeros,
             weight: CORRECTION_WEIGHT,
+            hessian: None,
             path,
         };
         // A candidate out of its bounds: the same correction again with
@@ -902,6 +1075,7 @@ fn judge(
         terminal: &correction,
         gradient: &zeros,
         weight: CORRECTION_WEIGHT,
+        hessian: None,
         path: &[],
     };
     let Ok(step) = bounded_step(problem, &candidate, &ask, 0, qp_iterations) else {

@@ -29,6 +29,9 @@ pub type Row = (Vec<(usize, f64)>, f64);
 pub struct Problem<'a> {
     /// The diagonal of P, ≥ 0 (its length is the number of variables).
     pub p: &'a [f64],
+    /// A dense symmetric block added to P on the first nd variables
+    /// (row-major, nd² entries): the polish's Lagrangian Hessian.
+    pub dense: Option<&'a [f64]>,
     pub q: &'a [f64],
     /// A·x = b.
     pub eq: &'a [Row],
@@ -115,8 +118,22 @@ pub enum QpError {
     Data,
     #[error("the QP's rows are inconsistent: row {row} stays {residual:.2e} from its bound")]
     Infeasible { row: usize, residual: f64 },
-    #[error("the QP's Hessian has a diagonal entry that is not positive")]
+    #[error("the QP's Hessian is not positive definite")]
     NotStrictlyConvex,
+}
+
+/// A dense block and its side nd (nd² entries; None if absent).
+pub(crate) fn dense_block(dense: Option<&[f64]>) -> Option<(&[f64], usize)> {
+    dense.map(|d| (d, (d.len() as f64).sqrt().round() as usize))
+}
+
+/// out += D·x on the dense block's variables.
+fn add_dense_times(dense: Option<&[f64]>, x: &[f64], out: &mut [f64]) {
+    if let Some((d, nd)) = dense_block(dense) {
+        for (r, o) in out.iter_mut().enumerate().take(nd) {
+            *o += dense::dot(&d[r * nd..(r + 1) * nd], &x[..nd]);
+        }
+    }
 }
 
 /// The rows scaled to a unit ∞-norm: (rows, their scales).
@@ -213,7 +230,15 @@ impl Factors {
     /// Factor the Newton matrix for the weights w = z/s (module docs);
     /// false when H or the Schur complement is not numerically positive
     /// definite.
-    fn factor(&mut self, p: &[f64], eq: &[Row], le: &[Row], w: &[f64], shift: f64) -> bool {
+    fn factor(
+        &mut self,
+        p: &[f64],
+        dense: Option<&[f64]>,
+        eq: &[Row],
+        le: &[Row],
+        w: &[f64],
+        shift: f64,
+    ) -> bool {
         let n = self.n;
         self.shift = shift;
         self.kept.clear();
@@ -221,6 +246,14 @@ impl Factors {
         self.h.fill(0.0);
         for (i, pi) in p.iter().enumerate() {
             self.h[i * n + i] = *pi + shift;
+        }
+        if let Some(block) = dense_block(dense) {
+            let nd = block.1;
+            for c in 0..nd {
+                for r in c..nd {
+                    self.h[c * n + r] += block.0[r * nd + c];
+                }
+            }
         }
         for (k, ((terms, _), &wk)) in le.iter().zip(w).enumerate() {
             if wk > KEEP_WEIGHT && terms.len() > 1 {
@@ -293,7 +326,7 @@ impl Factors {
 /// blocked kernels spent about 280,000 instructions per factorization and
 /// 20,000 per solve (callgrind, the paper's case), two to three times these
 /// plain column loops, which the compiler vectorizes.
-mod dense {
+pub(crate) mod dense {
     /// L·Lᵀ = A in place (left-looking); false at a pivot ≤ 0 or not finite.
     pub fn cholesky(a: &mut [f64], n: usize) -> bool {
         for j in 0..n {
@@ -374,6 +407,7 @@ struct Iterate {
 
 struct Scaled<'a> {
     p: &'a [f64],
+    dense: Option<&'a [f64]>,
     q: &'a [f64],
     eq: Vec<Row>,
     le: Vec<Row>,
@@ -383,6 +417,7 @@ impl Scaled<'_> {
     fn residuals(&self, it: &Iterate) -> Residuals {
         let n = self.p.len();
         let mut dual: Vec<f64> = (0..n).map(|i| self.p[i] * it.x[i] + self.q[i]).collect();
+        add_dense_times(self.dense, &it.x, &mut dual);
         add_rows_transposed(&self.eq, &it.y, &mut dual);
         add_rows_transposed(&self.le, &it.z, &mut dual);
         let mut eq = vec![0.0; self.eq.len()];
@@ -433,6 +468,7 @@ impl Scaled<'_> {
     ) -> (Residuals, Vec<f64>) {
         let n = self.p.len();
         let mut dual: Vec<f64> = (0..n).map(|i| self.p[i] * d.x[i] + r.dual[i]).collect();
+        add_dense_times(self.dense, &d.x, &mut dual);
         add_rows_transposed(&self.eq, &d.y, &mut dual);
         add_rows_transposed(&self.le, &d.z, &mut dual);
         let mut eq = vec![0.0; self.eq.len()];
@@ -530,6 +566,7 @@ pub fn solve(problem: &Problem) -> Result<Answer, QpError> {
     let (le, le_scale) = scaled(problem.le);
     let qp = Scaled {
         p: problem.p,
+        dense: problem.dense,
         q: problem.q,
         eq,
         le,
@@ -621,6 +658,10 @@ pub(crate) fn validate(problem: &Problem) -> Result<(), QpError> {
         || !problem.p.iter().chain(problem.q).all(|v| v.is_finite())
         || !finite(problem.eq)
         || !finite(problem.le)
+        || problem.dense.is_some_and(|d| {
+            dense_block(Some(d)).is_none_or(|(_, nd)| nd * nd != d.len() || nd > n)
+                || !d.iter().all(|v| v.is_finite())
+        })
     {
         return Err(QpError::Data);
     }
@@ -642,7 +683,7 @@ pub(crate) fn validate(problem: &Problem) -> Result<(), QpError> {
 fn factor(factors: &mut Factors, qp: &Scaled, w: &[f64]) -> bool {
     let mut shift = REGULARIZATION;
     while shift <= MAX_REGULARIZATION {
-        if factors.factor(qp.p, &qp.eq, &qp.le, w, shift) {
+        if factors.factor(qp.p, qp.dense, &qp.eq, &qp.le, w, shift) {
             return true;
         }
         shift *= 100.0;
@@ -695,6 +736,7 @@ mod tests {
             .flat_map(|i| [(vec![(i, 1.0)], 1.0), (vec![(i, -1.0)], 1.0)])
             .collect();
         let a = solve(&Problem {
+            dense: None,
             p: &p,
             q: &q,
             eq: &[],
@@ -709,6 +751,7 @@ mod tests {
         // Free are 0 and 3: 0.3 − y − 0.2 − y + 1 − 1 = 0.5 → y = −0.2.
         let eq = [((0..4).map(|i| (i, 1.0)).collect(), 0.5)];
         let a = solve(&Problem {
+            dense: None,
             p: &p,
             q: &q,
             eq: &eq,
@@ -784,6 +827,7 @@ mod tests {
                 le.push((vec![(i, -1.0)], 0.5));
             }
             let ours = solve(&Problem {
+                dense: None,
                 p: &p,
                 q: &q,
                 eq: &eq,
@@ -853,6 +897,7 @@ mod tests {
         let q = [f64::NAN];
         assert_eq!(
             solve(&Problem {
+                dense: None,
                 p: &p,
                 q: &q,
                 eq: &[],
@@ -864,6 +909,7 @@ mod tests {
         let le = [(vec![(3, 1.0)], 1.0)];
         assert_eq!(
             solve(&Problem {
+                dense: None,
                 p: &p,
                 q: &q,
                 eq: &[],

@@ -34,7 +34,7 @@ pub const NC: usize = DEGREE + 1;
 /// Most parameters of one segment: d, δ's coefficients, T's.
 pub const MAX_SEGMENT_PARAMS: usize = 1 + 2 * NC;
 /// Local derivative columns: 7 start states and a segment's parameters.
-const ND: usize = 7 + MAX_SEGMENT_PARAMS;
+pub(crate) const ND: usize = 7 + MAX_SEGMENT_PARAMS;
 
 /// One segment of the polish.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -166,7 +166,7 @@ fn add<T: DualNum<Primitive = f64> + Copy>(y: &[T; 7], k: &[T; 7], h: f64) -> [T
 }
 
 /// The coefficients of a polynomial at `p[at..at + NC]`.
-fn coefficients<T: Copy>(p: &[T], at: usize) -> [T; NC] {
+pub(crate) fn coefficients<T: Copy>(p: &[T], at: usize) -> [T; NC] {
     std::array::from_fn(|k| p[at + k])
 }
 
@@ -421,14 +421,14 @@ fn chain(dv: &[f64; ND], a: &[f64], o: usize, params: usize, out: &mut [f64]) {
 
 /// Local derivatives of a segment's state: ∂y/∂(y at the segment's start,
 /// its d, δ's coefficients, T's coefficients), 7 rows of [`ND`].
-type Local = [[f64; ND]; 7];
+pub(crate) type Local = [[f64; ND]; 7];
 
 /// One stage of [`segment_sensitivity`]: k = d·f(y, T(s), δ(s)) and its
 /// local derivatives kv = d·(f_y·yv + f_T·∂T/∂v + f_δ·∂δ/∂v) + f·∂d/∂v on
 /// the first `cols` columns, with f and its Jacobian written out
 /// ([`rhs_physical_jacobian`]). The value k is [`rk4_step`]'s to the bit.
 #[allow(clippy::too_many_arguments)]
-fn stage(
+pub(crate) fn stage(
     model: &Model,
     y: &[f64; 7],
     yv: &Local,
@@ -473,7 +473,7 @@ fn stage(
 }
 
 /// y + h·k and yv + h·kv (the first `cols` columns).
-fn advance(
+pub(crate) fn advance(
     y: &[f64; 7],
     yv: &Local,
     k: &[f64; 7],

@@ -267,6 +267,10 @@ pub struct Qp<'a> {
     pub trust_radius: f64,
     /// The weight ε of the proximal term ½·ε·‖Δp̂‖².
     pub proximal_weight: f64,
+    /// The Lagrangian's Hessian in Δp̂ (n², row-major), added to ε·I: the
+    /// QP's curvature is then ½·Δp̂ᵀ·(Ĥ + ε·I)·Δp̂, which must be positive
+    /// definite. None: the proximal term alone.
+    pub hessian: Option<&'a [f64]>,
     /// The path rows a·Δp̂ − ν ≤ b ([`crate::polish::ground::rows`]),
     /// sharing one slack ν ≥ 0 weighted [`SLACK_WEIGHT`].
     pub path: &'a [(Vec<(usize, f64)>, f64)],
@@ -377,6 +381,7 @@ impl Solved {
             le.push((vec![(i, -1.0)], 0.0));
         }
         let problem = crate::polish::qp::Problem {
+            dense: qp.hessian,
             p: &diagonal,
             q: &q,
             eq: &eq,
@@ -508,6 +513,7 @@ mod tests {
                 mass_gradient: &gradient,
                 trust_radius: 0.5,
                 proximal_weight: 0.3,
+                hessian: None,
                 path: &path,
             };
             let by_elastic = Solved::new(&qp, n, Form::Elastic).unwrap();

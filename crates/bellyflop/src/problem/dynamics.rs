@@ -215,6 +215,96 @@ pub fn rhs_physical_jacobian(
     (f, jac)
 }
 
+/// The gradient and Hessian of φ = κᵀ·f(y, T, δ) ([`rhs_physical`]) in
+/// the seven variables on which f depends, (Vx, Vz, θ, w, m, T, δ), for a
+/// weight κ on its seven rows (a costate, or an RK4 stage's multiplier:
+/// `polish::hessian`), written out. With u = Vx − W_x, v = Vz, S = √(u² +
+/// v² + ε²), D = (−c·S·u, −c·S·v), φ = κ₀·Vx + κ₁·Vz + κ₄·w + κ₆·α·T + Q/m
+/// where
+///
+///   Q = κ₂·(−T·sin(θ+δ) + D_x) + κ₃·(T·cos(θ+δ) + D_z)
+///       + (κ₅/k)·(−T·sin δ·l_cg − (D_x·cos θ + D_z·sin θ)·(l_cp − l_cg)),
+///
+/// k the inertia per mass, so that ∂²φ/∂a∂b = Q_ab/m, ∂²φ/∂a∂m = −Q_a/m²
+/// and ∂²φ/∂m² = 2Q/m³. Checked against num-dual's second-order dual
+/// numbers in the tests.
+pub fn weighted_rhs_hessian(
+    model: &Model,
+    s: &[f64; 7],
+    thrust_n: f64,
+    delta_rad: f64,
+    kappa: &[f64; 7],
+) -> ([f64; 7], [[f64; 7]; 7]) {
+    let [_, _, vx, vz, theta, _, m] = *s;
+    let t = thrust_n;
+    let (u, v) = (vx - model.wind_x_mps, vz);
+    let speed = (u * u + v * v + SPEED_EPS_MPS * SPEED_EPS_MPS).sqrt();
+    let c = model.c_ld_kgpm;
+    let (dx, dz) = (-c * speed * u, -c * speed * v);
+    let s3 = speed * speed * speed;
+    // D_a for a = u (D_x) and a = v (D_z), b the other: first and second
+    // derivatives.
+    let (dx_u, dx_v) = (-c * (speed + u * u / speed), -c * u * v / speed);
+    let (dz_u, dz_v) = (dx_v, -c * (speed + v * v / speed));
+    let dx_uu = -c * (3.0 * u / speed - u * u * u / s3);
+    let dx_uv = -c * (v / speed - u * u * v / s3);
+    let dx_vv = -c * (u / speed - u * v * v / s3);
+    let dz_vv = -c * (3.0 * v / speed - v * v * v / s3);
+    let dz_uv = -c * (u / speed - v * v * u / s3);
+    let dz_uu = -c * (v / speed - v * u * u / s3);
+    let (sin_phi, cos_phi) = (theta + delta_rad).sin_cos();
+    let (sin_th, cos_th) = theta.sin_cos();
+    let (sin_d, cos_d) = delta_rad.sin_cos();
+    let arm = model.cp_m - model.cg_m;
+    let lcg = model.cg_m;
+    let (k2, k3, k5) = (kappa[2], kappa[3], kappa[5] / model.inertia_per_mass_m2);
+    let q = k2 * (-t * sin_phi + dx)
+        + k3 * (t * cos_phi + dz)
+        + k5 * (-t * sin_d * lcg - (dx * cos_th + dz * sin_th) * arm);
+    // The drag's weights.
+    let a = k2 - k5 * arm * cos_th;
+    let b = k3 - k5 * arm * sin_th;
+    // Q's gradient and Hessian in (u, v, θ, T, δ).
+    let g = [
+        a * dx_u + b * dz_u,
+        a * dx_v + b * dz_v,
+        -k2 * t * cos_phi - k3 * t * sin_phi + k5 * arm * (dx * sin_th - dz * cos_th),
+        -k2 * sin_phi + k3 * cos_phi - k5 * lcg * sin_d,
+        -k2 * t * cos_phi - k3 * t * sin_phi - k5 * t * lcg * cos_d,
+    ];
+    let mut h = [[0.0; 5]; 5];
+    h[0][0] = a * dx_uu + b * dz_uu;
+    h[0][1] = a * dx_uv + b * dz_uv;
+    h[1][1] = a * dx_vv + b * dz_vv;
+    h[0][2] = k5 * arm * (dx_u * sin_th - dz_u * cos_th);
+    h[1][2] = k5 * arm * (dx_v * sin_th - dz_v * cos_th);
+    h[2][2] = k2 * t * sin_phi - k3 * t * cos_phi + k5 * arm * (dx * cos_th + dz * sin_th);
+    h[2][3] = -k2 * cos_phi - k3 * sin_phi;
+    h[2][4] = k2 * t * sin_phi - k3 * t * cos_phi;
+    h[3][4] = -k2 * cos_phi - k3 * sin_phi - k5 * lcg * cos_d;
+    h[4][4] = k2 * t * sin_phi - k3 * t * cos_phi + k5 * t * lcg * sin_d;
+    // φ's variables (Vx, Vz, θ, w, m, T, δ) from Q's (u, v, θ, T, δ).
+    const AT: [usize; 5] = [0, 1, 2, 5, 6];
+    let mut grad = [0.0; 7];
+    let mut hess = [[0.0; 7]; 7];
+    for (i, &r) in AT.iter().enumerate() {
+        grad[r] = g[i] / m;
+        hess[r][4] = -g[i] / (m * m);
+        hess[4][r] = hess[r][4];
+        for (j, &col) in AT.iter().enumerate().skip(i) {
+            hess[r][col] = h[i][j] / m;
+            hess[col][r] = hess[r][col];
+        }
+    }
+    grad[0] += kappa[0];
+    grad[1] += kappa[1];
+    grad[3] = kappa[4];
+    grad[4] = -q / (m * m);
+    grad[5] += kappa[6] * model.alpha_spm;
+    hess[4][4] = 2.0 * q / (m * m * m);
+    (grad, hess)
+}
+
 /// Eq. (8): the nozzle-rate augmented model of P2, state (x, z, Vx, Vz, θ, w, m, δ),
 /// control (T \[N\], χ [rad/s]).
 pub fn rhs_augmented<D: DualNum<Primitive = f64> + Copy>(
@@ -314,6 +404,56 @@ pub fn thrust_components(form: Formulation, x: &[f64; NX], u: &[f64]) -> (f64, f
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`weighted_rhs_hessian`] against num-dual's second-order dual
+    /// numbers on κᵀ·[`rhs_physical`], with a wind, at states in and out of
+    /// the flip.
+    #[test]
+    fn the_weighted_hessian_is_second_order_differentiation() {
+        use num_dual::Dual2SVec64;
+        type D2 = Dual2SVec64<7>;
+        let mut s = crate::input::scenario::Scenario::paper();
+        s.environment.wind_x_mps = 7.0;
+        let model = Model::new(&s.vehicle, &s.environment);
+        let kappa = [0.3, -0.2, 0.7, -1.1, 0.4, 2.5, -1e-3];
+        for (y, t, d) in [
+            ([5.0, 800.0, 10.0, -80.0, 1.4, -0.1, 110_000.0], 1.6e6, 0.05),
+            ([-2.0, 40.0, -3.0, -4.0, 0.02, 0.3, 90_000.0], 2.2e6, -0.2),
+        ] {
+            let var = |v: f64, i: usize| D2::from_re(v).derivative(i);
+            let ys = [
+                D2::from_re(y[0]),
+                D2::from_re(y[1]),
+                var(y[2], 0),
+                var(y[3], 1),
+                var(y[4], 2),
+                var(y[5], 3),
+                var(y[6], 4),
+            ];
+            let f = rhs_physical(&model, &ys, var(t, 5), var(d, 6));
+            let mut phi = D2::from_re(0.0);
+            for (f, k) in f.iter().zip(&kappa) {
+                phi += *f * *k;
+            }
+            let g = phi.v1.0.unwrap();
+            let h = phi.v2.0.unwrap();
+            let (grad, hess) = weighted_rhs_hessian(&model, &y, t, d, &kappa);
+            for r in 0..7 {
+                assert!(
+                    (grad[r] - g[r]).abs() <= 1e-12 * g[r].abs().max(1e-9),
+                    "∂φ/∂v{r}"
+                );
+                for c in 0..7 {
+                    let want = h[(r, c)];
+                    assert!(
+                        (hess[r][c] - want).abs() <= 1e-10 * want.abs().max(1e-12),
+                        "∂²φ/∂v{r}∂v{c}: {} vs {want}",
+                        hess[r][c]
+                    );
+                }
+            }
+        }
+    }
     use crate::input::scenario::Scenario;
 
     fn model() -> Model {
