@@ -73,9 +73,74 @@ pub fn solve(
     sol
 }
 
+/// [`solve_with`], SCvx after a direct answer that is not `solved` when
+/// the scenario has limits ([`with_scvx`]), and a mesh twice as fine after
+/// an answer whose polish could not make it fly ([`with_finer_mesh`]).
+fn with_fallback(
+    scenario: &Scenario,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+) -> Solution {
+    let sol = with_scvx(scenario, settings, observer);
+    with_finer_mesh(scenario, settings, observer, sol)
+}
+
+/// After an `inaccurate` polished answer (a collocation answer that the
+/// polish could not make fly within every constraint, so the raw one,
+/// which does not land), the same solve on a uniform mesh of twice the
+/// nodes, once, where the scenario's mesh is uniform and twice its nodes
+/// are within their range: its answer, with both solves' time, when it is
+/// `solved`, else the first answer with the second's time and reason. The
+/// raw answer from which the polish starts is then closer to the optimum:
+/// on issue 15's 150 states with the approach cone, one of the two
+/// `inaccurate` states (box80) is solved so, in 0.9 s at N = 40
+/// (BENCHMARKS.md, issue 37).
+fn with_finer_mesh(
+    scenario: &Scenario,
+    settings: &SolverSettings,
+    observer: &mut dyn Observer,
+    sol: Solution,
+) -> Solution {
+    let wanted =
+        sol.status == Status::Inaccurate && settings.polish && settings.refinement.tolerance == 0.0;
+    let Some(finer) = wanted.then(|| finer_mesh(scenario)).flatten() else {
+        return sol;
+    };
+    let nodes = finer.discretization.nodes;
+    let mut other = solve_with(&finer, settings, observer);
+    other.solve_time_ms += sol.solve_time_ms;
+    if other.status == Status::Solved {
+        other.message = format!(
+            "solved on a uniform mesh of {nodes} nodes, after the answer at {} could not be made to fly: {}",
+            scenario.discretization.nodes, sol.message
+        );
+        other
+    } else {
+        let mut sol = sol;
+        sol.solve_time_ms = other.solve_time_ms;
+        sol.message = format!(
+            "{}; on a uniform mesh of {nodes} nodes, not solved either: {}",
+            sol.message, other.message
+        );
+        sol
+    }
+}
+
+/// The scenario on a uniform mesh of twice its nodes, where its own mesh is
+/// uniform and the doubled one valid (at most 100 nodes on the global mesh,
+/// 200 over several intervals).
+fn finer_mesh(scenario: &Scenario) -> Option<Scenario> {
+    if scenario.discretization.mesh.is_some() {
+        return None;
+    }
+    let mut finer = scenario.clone();
+    finer.discretization.nodes *= 2;
+    finer.validate().ok().map(|()| finer)
+}
+
 /// [`solve_with`], and SCvx after a direct answer that is not `solved`
 /// when the scenario has limits ([`scvx_may_rescue`]).
-fn with_fallback(
+fn with_scvx(
     scenario: &Scenario,
     settings: &SolverSettings,
     observer: &mut dyn Observer,
