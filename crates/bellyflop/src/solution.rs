@@ -133,6 +133,11 @@ pub struct PolishIteration {
     /// The proximal weight ε of the QP.
     pub proximal_weight: f64,
     pub qp_iterations: u32,
+    /// Σ|r̂| of the landing residual of the QP's step itself, flown, before
+    /// the second-order correction that a poor step gets (the QP's
+    /// linearization puts it at zero: the rest is the landing's second
+    /// order). NaN (JSON null) where no step was judged.
+    pub step_residual: f64,
 }
 
 /// One arc structure the polish flew: the collocation's, then each

@@ -544,13 +544,19 @@ fn iterate(
             accepted: false,
             proximal_weight: weight,
             qp_iterations: *qp_iterations - before_qp,
+            step_residual: f64::NAN,
         });
         if at_tolerances(problem, p, residual, shot.path, gain, predicted) {
             converged = true;
             break;
         }
         let candidate = problem.moved(p, &step.dp);
-        let (candidate, actual, tried) = judge(
+        let Judged {
+            point: candidate,
+            actual,
+            shot: tried,
+            step_residual,
+        } = judge(
             problem,
             &terminal,
             p,
@@ -560,11 +566,7 @@ fn iterate(
             qp_iterations,
         );
         let rho = actual / predicted.max(f64::MIN_POSITIVE);
-        if let Some(last) = history.last_mut() {
-            last.rho = rho;
-            last.accepted = rho > 0.0;
-            last.qp_iterations = *qp_iterations - before_qp;
-        }
+        judged(history, rho, *qp_iterations - before_qp, step_residual);
         if rho > 0.0 {
             *p = candidate;
             sens = problem.sensitivity(p);
@@ -586,6 +588,17 @@ fn iterate(
     let shot = corrected(problem, &sens, &watch, p, qp_iterations);
     *total += iteration;
     Ok((iteration, shot, last, converged))
+}
+
+/// The last iteration's entry completed with its step's verdict: the ratio
+/// ρ, the QPs' changes and the step's own landing residual.
+fn judged(history: &mut [PolishIteration], rho: f64, qp_iterations: u32, step_residual: f64) {
+    if let Some(last) = history.last_mut() {
+        last.rho = rho;
+        last.accepted = rho > 0.0;
+        last.qp_iterations = qp_iterations;
+        last.step_residual = step_residual;
+    }
 }
 
 /// The landing corrections ([`correct`]) from p, linearized at its
@@ -1054,17 +1067,18 @@ fn judge(
     (phi, nu): (f64, f64),
     predicted: f64,
     qp_iterations: &mut u32,
-) -> (Vec<f64>, f64, Option<Shot>) {
+) -> Judged {
     let decrease = |q: &[f64]| match problem.shoot(q) {
         Ok(shot) => (phi - problem.merit(&shot, nu), Some(shot)),
         Err(_) => (f64::NEG_INFINITY, None),
     };
     let (actual, shot) = decrease(&candidate);
     let Some(shot) = shot else {
-        return (candidate, actual, None);
+        return Judged::new(candidate, actual, None, f64::NAN);
     };
+    let step_residual: f64 = problem.residual(&shot.y).iter().map(|r| r.abs()).sum();
     if actual >= RHO_SHRINK * predicted {
-        return (candidate, actual, Some(shot));
+        return Judged::new(candidate, actual, Some(shot), step_residual);
     }
     let zeros = vec![0.0; p.len()];
     let correction = Terminal {
@@ -1079,12 +1093,35 @@ fn judge(
         path: &[],
     };
     let Ok(step) = bounded_step(problem, &candidate, &ask, 0, qp_iterations) else {
-        return (candidate, actual, Some(shot));
+        return Judged::new(candidate, actual, Some(shot), step_residual);
     };
     let corrected = problem.moved(&candidate, &step.dp);
     match decrease(&corrected) {
-        (better, Some(other)) if better > actual => (corrected, better, Some(other)),
-        _ => (candidate, actual, Some(shot)),
+        (better, Some(other)) if better > actual => {
+            Judged::new(corrected, better, Some(other), step_residual)
+        }
+        _ => Judged::new(candidate, actual, Some(shot), step_residual),
+    }
+}
+
+/// [`judge`]'s verdict: the point (the candidate or its correction), its
+/// actual decrease of the merit, its shot (None where it failed), and the
+/// landing residual Σ|r̂| of the QP's step itself, before any correction.
+struct Judged {
+    point: Vec<f64>,
+    actual: f64,
+    shot: Option<Shot>,
+    step_residual: f64,
+}
+
+impl Judged {
+    fn new(point: Vec<f64>, actual: f64, shot: Option<Shot>, step_residual: f64) -> Self {
+        Judged {
+            point,
+            actual,
+            shot,
+            step_residual,
+        }
     }
 }
 
