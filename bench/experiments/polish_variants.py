@@ -13,6 +13,7 @@ environment variable that a patch of bench/experiments reads
     bench/reference/.venv/bin/python bench/accurate.py --fine /tmp/fine.json --fine-only --box 30 --wide 15
     bench/reference/.venv/bin/python bench/experiments/polish_variants.py --fine /tmp/fine.json
     bench/reference/.venv/bin/python bench/experiments/polish_variants.py --fine /tmp/fine.json --solver 'polish_hessian = true'
+    bench/reference/.venv/bin/python bench/experiments/polish_variants.py --fine /tmp/fine.json --all
 """
 import argparse
 import json
@@ -34,6 +35,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--fine", required=True, help="bench/accurate.py's cache of the fine reference")
     ap.add_argument("--states", default=DEFAULT)
+    ap.add_argument("--all", action="store_true",
+                    help="the paper's case and issue 15's first 30 + 15 states (bench/accurate.py --box 30 --wide 15)")
     ap.add_argument("--solver", action="append", default=[], metavar="KEY = VALUE")
     ap.add_argument("--env", action="append", default=[], metavar="NAME=VALUE")
     ap.add_argument("--bin", default=str(BIN))
@@ -48,7 +51,10 @@ def main():
     its, diffs, total, lines = [], [], 0.0, []
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "state.toml"
-        for name in args.states.split(","):
+        names = args.states.split(",")
+        if args.all:
+            names = ["paper"] + [f"box{k}" for k in range(30)] + [f"wide{k}" for k in range(15)]
+        for name in names:
             if name == "paper":
                 text, key = with_solver_lines((ROOT / "scenarios" / "paper.toml").read_text()), "paper"
             else:
@@ -66,8 +72,12 @@ def main():
             total += d["solve_time_ms"]
             flag = "" if d["status"] == "solved" else " " + d["status"]
             lines.append(f"{name}:{it}/{d['solve_time_ms']:.0f}ms/{diff:+.2f}{flag}")
+    # At least the reference - 0.5 kg (the issue's bound; a few references
+    # are worse local optima, which ours exceed by tonnes).
+    within = sum(d >= -0.5 for d in diffs)
     print(f"{len(its)} states: polish iterations median {statistics.median(its)}, max {max(its)}; "
-          f"m_f - fine median {statistics.median(diffs):+.2f} kg, min {min(diffs):+.2f}; total {total:.0f} ms")
+          f"m_f - fine median {statistics.median(diffs):+.2f} kg, min {min(diffs):+.2f}, "
+          f"at least the reference - 0.5 kg on {within}; total {total:.0f} ms")
     print(" ".join(lines))
 
 
