@@ -40,6 +40,13 @@ def main():
     ap.add_argument("--solver", action="append", default=[], metavar="KEY = VALUE")
     ap.add_argument("--env", action="append", default=[], metavar="NAME=VALUE")
     ap.add_argument("--bin", default=str(BIN))
+    ap.add_argument("--nodes", type=int, default=20,
+                    help="LGR nodes of the collocation that the polish starts from (the envelope's states)")
+    ap.add_argument("--log", metavar="FILE",
+                    help="append each solve's stderr, its lines prefixed by the state's name "
+                         "(what a probe patch of bench/experiments prints)")
+    ap.add_argument("--json-dir", metavar="DIR",
+                    help="keep each state's solve --json output as DIR/NAME.json (its polish history)")
     args = ap.parse_args()
     SOLVER_LINES.extend(args.solver)
     env = dict(os.environ)
@@ -59,11 +66,18 @@ def main():
                 text, key = with_solver_lines((ROOT / "scenarios" / "paper.toml").read_text()), "paper"
             else:
                 state = by_name[name]
-                text = scenario_text(state, 20)
+                text = scenario_text(state, args.nodes)
                 key = f"{name}:" + ",".join(f"{v:.12g}" for v in state)
             path.write_text(text)
-            out = subprocess.run([args.bin, "solve", "--scenario", str(path), "--json", "--quiet"],
-                                 capture_output=True, text=True, env=env).stdout
+            run = subprocess.run([args.bin, "solve", "--scenario", str(path), "--json", "--quiet"],
+                                 capture_output=True, text=True, env=env)
+            out = run.stdout
+            if args.json_dir:
+                Path(args.json_dir).mkdir(parents=True, exist_ok=True)
+                (Path(args.json_dir) / f"{name}.json").write_text(out)
+            if args.log:
+                with open(args.log, "a") as log:
+                    log.writelines(f"{name} {line}\n" for line in run.stderr.splitlines())
             d = json.loads(out)
             it = (d.get("polish") or {}).get("iterations", 0)
             diff = d["final_mass_kg"] - fine[key]["final_mass_kg"]
