@@ -42,6 +42,8 @@ def main():
     ap.add_argument("--bin", default=str(BIN))
     ap.add_argument("--nodes", type=int, default=20,
                     help="LGR nodes of the collocation that the polish starts from (the envelope's states)")
+    ap.add_argument("--arg", action="append", default=[], metavar="ARG",
+                    help="an argument for every `bellyflop solve` (--arg=--intervals --arg=4)")
     ap.add_argument("--log", metavar="FILE",
                     help="append each solve's stderr, its lines prefixed by the state's name "
                          "(what a probe patch of bench/experiments prints)")
@@ -69,7 +71,7 @@ def main():
                 text = scenario_text(state, args.nodes)
                 key = f"{name}:" + ",".join(f"{v:.12g}" for v in state)
             path.write_text(text)
-            run = subprocess.run([args.bin, "solve", "--scenario", str(path), "--json", "--quiet"],
+            run = subprocess.run([args.bin, "solve", "--scenario", str(path), "--json", "--quiet", *args.arg],
                                  capture_output=True, text=True, env=env)
             out = run.stdout
             if args.json_dir:
