@@ -146,7 +146,7 @@ mod tests {
     use super::*;
     use crate::flown::legendre;
     use crate::input::scenario::Scenario;
-    use crate::polish::shooting::{sensitivity, Segment};
+    use crate::polish::shooting::{fixture, sensitivity};
 
     /// The discrete adjoint is the gradient of Λ: integrated against a
     /// change of the thrust on a free segment, ∫ S_T·P̃_k dt matches
@@ -158,13 +158,10 @@ mod tests {
         let s = Scenario::paper();
         let model = Model::new(&s.vehicle, &s.environment);
         let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
-        let seg = |thrust, steps| Segment {
-            thrust,
-            steps,
-            d_min_s: 0.0,
-            d_max_s: 10.0,
-        };
-        let layout = Layout::new(vec![seg(ArcKind::Bound(hi), 40), seg(ArcKind::Free, 800)]);
+        let layout = Layout::new(vec![
+            fixture::segment(ArcKind::Bound(hi), 40),
+            fixture::segment(ArcKind::Free, 800),
+        ]);
         let mut p = vec![0.0; layout.len];
         p[layout.duration(0)] = 1.0;
         p[layout.duration(1)] = 2.0;
@@ -174,7 +171,7 @@ mod tests {
         let t = layout.thrust(1).unwrap();
         p[t] = 0.5 * (lo + hi);
         p[t + 1] = 0.1 * (hi - lo);
-        let y0 = [0.0, 1000.0, 10.0, -80.0, 1.4, -0.1, 100_000.0];
+        let y0 = fixture::Y0;
         let lambda_f = [0.3, -0.2, 0.1, 0.5, 20.0, -3.0, -1e-3];
         let sw = switching(&model, &layout, y0, &p, lambda_f);
         let sens = sensitivity(&model, &layout, y0, &p);

@@ -392,7 +392,7 @@ fn stage_jacobians(
 mod tests {
     use super::*;
     use crate::input::scenario::Scenario;
-    use crate::polish::shooting::{sensitivity, Segment};
+    use crate::polish::shooting::{fixture, sensitivity};
 
     /// [`convexified`] keeps a positive definite matrix and its
     /// eigenvectors, flips a negative eigenvalue, and raises a zero one to
@@ -428,30 +428,8 @@ mod tests {
     fn the_hessian_matches_finite_differences_of_the_gradient() {
         let s = Scenario::paper();
         let model = Model::new(&s.vehicle, &s.environment);
-        let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
-        let seg = |thrust, steps| Segment {
-            thrust,
-            steps,
-            d_min_s: 0.0,
-            d_max_s: 10.0,
-        };
-        let layout = Layout::new(vec![
-            seg(ArcKind::Bound(hi), 20),
-            seg(ArcKind::Free, 30),
-            seg(ArcKind::Bound(lo), 10),
-        ]);
-        let mut p = vec![0.0; layout.len];
-        for j in 0..3 {
-            p[layout.duration(j)] = 1.0 + 0.3 * j as f64;
-            p[layout.delta(j)] = 0.05;
-            p[layout.delta(j) + 1] = -0.02 * j as f64;
-            p[layout.delta(j) + 3] = 0.01;
-        }
-        let t = layout.thrust(1).unwrap();
-        p[t] = 0.5 * (lo + hi);
-        p[t + 1] = 0.1 * (hi - lo);
-        p[t + 2] = -0.05 * (hi - lo);
-        let y0 = [0.0, 1000.0, 10.0, -80.0, 1.4, -0.1, 100_000.0];
+        let (layout, p, t) = fixture::varied(&model);
+        let y0 = fixture::Y0;
         let l = [0.3, -0.2, 0.1, 0.5, 20.0, -3.0, -1e-3];
         let h = hessian(&model, &layout, y0, &p, l);
         let n = layout.len;

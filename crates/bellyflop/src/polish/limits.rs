@@ -151,8 +151,7 @@ pub fn rows(
 mod tests {
     use super::*;
     use crate::input::scenario::Scenario;
-    use crate::polish::arcs::ArcKind;
-    use crate::polish::shooting::{self, Layout, Segment};
+    use crate::polish::shooting::{self, fixture};
     use crate::problem::constraints::{self, Constraints};
     use crate::problem::dynamics::Model;
 
@@ -172,28 +171,7 @@ mod tests {
         };
         let all = constraints::rows(&s);
         let model = Model::new(&s.vehicle, &s.environment);
-        let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
-        let seg = |thrust, steps| Segment {
-            thrust,
-            steps,
-            d_min_s: 0.0,
-            d_max_s: 10.0,
-        };
-        let layout = Layout::new(vec![
-            seg(ArcKind::Bound(hi), 37),
-            seg(ArcKind::Free, 23),
-            seg(ArcKind::Bound(lo), 11),
-        ]);
-        let mut p = vec![0.0; layout.len];
-        for (j, d) in [1.2, 1.4, 0.5].into_iter().enumerate() {
-            p[layout.duration(j)] = d;
-            p[layout.delta(j)] = 0.01;
-            p[layout.delta(j) + 1] = -0.005 * j as f64;
-            p[layout.delta(j) + 3] = 0.002;
-        }
-        let t = layout.thrust(1).unwrap();
-        p[t] = 0.7 * hi;
-        p[t + 1] = -0.1 * (hi - lo);
+        let (layout, p, t) = fixture::dip(&model);
         // Tilted, drifting and pitching, 40 m up.
         let y0 = [0.0, 40.0, 3.0, -20.0, 0.1, 0.08, 100_000.0];
         let sens = shooting::sensitivity_with(&model, &layout, y0, &p, &all);

@@ -541,6 +541,89 @@ fn mul(a: &[[f64; 7]; 7], b: &[[f64; 7]; 7]) -> [[f64; 7]; 7] {
     std::array::from_fn(|i| std::array::from_fn(|j| (0..7).map(|k| a[i][k] * b[k][j]).sum()))
 }
 
+/// The layouts of the polish's derivative tests ([`crate::polish::hessian`],
+/// [`crate::polish::ground`], [`crate::polish::limits`],
+/// [`crate::polish::adjoint`] and this module's).
+#[cfg(test)]
+pub(crate) mod fixture {
+    use super::{Layout, Segment};
+    use crate::polish::arcs::ArcKind;
+    use crate::problem::dynamics::Model;
+
+    /// A start state 1 km up, falling at 80 m/s, belly first.
+    pub(crate) const Y0: [f64; 7] = [0.0, 1000.0, 10.0, -80.0, 1.4, -0.1, 100_000.0];
+
+    /// A segment of `steps` RK4 steps whose duration may range over
+    /// [0, 10] s.
+    pub(crate) fn segment(thrust: ArcKind, steps: usize) -> Segment {
+        Segment {
+            thrust,
+            steps,
+            d_min_s: 0.0,
+            d_max_s: 10.0,
+        }
+    }
+
+    /// Three segments, on T_max, free and on T_min, of `steps` RK4 steps
+    /// and durations `d_s`; δ's coefficients on segment j are (δ₀, −δ₁·j,
+    /// 0, δ₃) for `delta` = [δ₀, δ₁, δ₃], and the free thrust's first ones
+    /// are `thrust` \[N\]. Returns the layout, p, and where the free
+    /// thrust's coefficients start in p.
+    fn three_arcs(
+        model: &Model,
+        steps: [usize; 3],
+        d_s: [f64; 3],
+        delta: [f64; 3],
+        thrust: &[f64],
+    ) -> (Layout, Vec<f64>, usize) {
+        let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
+        let layout = Layout::new(vec![
+            segment(ArcKind::Bound(hi), steps[0]),
+            segment(ArcKind::Free, steps[1]),
+            segment(ArcKind::Bound(lo), steps[2]),
+        ]);
+        let mut p = vec![0.0; layout.len];
+        for (j, d) in d_s.into_iter().enumerate() {
+            p[layout.duration(j)] = d;
+            p[layout.delta(j)] = delta[0];
+            p[layout.delta(j) + 1] = -delta[1] * j as f64;
+            p[layout.delta(j) + 3] = delta[2];
+        }
+        let t = layout
+            .thrust(1)
+            .expect("the middle segment's thrust is free");
+        p[t..t + thrust.len()].copy_from_slice(thrust);
+        (layout, p, t)
+    }
+
+    /// [`three_arcs`] of 20, 30 and 10 steps over 1.0, 1.3 and 1.6 s, with
+    /// a cubic free thrust: the derivative tests' case from [`Y0`].
+    pub(crate) fn varied(model: &Model) -> (Layout, Vec<f64>, usize) {
+        let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
+        three_arcs(
+            model,
+            [20, 30, 10],
+            [1.0, 1.3, 1.6],
+            [0.05, 0.02, 0.01],
+            &[0.5 * (lo + hi), 0.1 * (hi - lo), -0.05 * (hi - lo)],
+        )
+    }
+
+    /// [`three_arcs`] for a start upright 40 m up, falling at 20 m/s: full
+    /// thrust for 1.2 s, then a free arc at ~0.7·T_max that stops the fall
+    /// near 22 m and climbs, then a low arc (the path rows' tests).
+    pub(crate) fn dip(model: &Model) -> (Layout, Vec<f64>, usize) {
+        let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
+        three_arcs(
+            model,
+            [37, 23, 11],
+            [1.2, 1.4, 0.5],
+            [0.01, 0.005, 0.002],
+            &[0.7 * hi, -0.1 * (hi - lo)],
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -607,30 +690,8 @@ mod tests {
     fn sensitivities_match_finite_differences() {
         let s = Scenario::paper();
         let model = Model::new(&s.vehicle, &s.environment);
-        let (lo, hi) = (model.min_thrust_n, model.max_thrust_n);
-        let seg = |thrust, steps| Segment {
-            thrust,
-            steps,
-            d_min_s: 0.0,
-            d_max_s: 10.0,
-        };
-        let layout = Layout::new(vec![
-            seg(ArcKind::Bound(hi), 20),
-            seg(ArcKind::Free, 30),
-            seg(ArcKind::Bound(lo), 10),
-        ]);
-        let mut p = vec![0.0; layout.len];
-        for j in 0..3 {
-            p[layout.duration(j)] = 1.0 + 0.3 * j as f64;
-            p[layout.delta(j)] = 0.05;
-            p[layout.delta(j) + 1] = -0.02 * j as f64;
-            p[layout.delta(j) + 3] = 0.01;
-        }
-        let t = layout.thrust(1).unwrap();
-        p[t] = 0.5 * (lo + hi);
-        p[t + 1] = 0.1 * (hi - lo);
-        p[t + 2] = -0.05 * (hi - lo);
-        let y0 = [0.0, 1000.0, 10.0, -80.0, 1.4, -0.1, 100_000.0];
+        let (layout, p, t) = fixture::varied(&model);
+        let y0 = fixture::Y0;
         let sens = sensitivity(&model, &layout, y0, &p);
         let last = *shoot(&model, &layout, y0, &p).last().unwrap();
         // The same arithmetic on the real parts, to rounding.
