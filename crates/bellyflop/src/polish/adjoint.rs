@@ -21,8 +21,7 @@
 
 use num_dual::{Dual64, DualNum, DualSVec64};
 
-use crate::polish::arcs::ArcKind;
-use crate::polish::shooting::{polynomial, rk4_step, Layout, NC};
+use crate::polish::shooting::{rk4_step, Layout, SegmentControls};
 use crate::problem::dynamics::{rhs_physical, Model};
 
 type D7 = DualSVec64<7>;
@@ -41,23 +40,6 @@ pub struct Switching {
     pub delta: Vec<f64>,
 }
 
-/// T(s) and δ(s) of segment j at s ∈ [0, 1].
-fn controls(layout: &Layout, p: &[f64], j: usize, s: f64) -> (f64, f64) {
-    let thrust = match layout.segments[j].thrust {
-        ArcKind::Bound(v) => v,
-        ArcKind::Free => polynomial(&coefficients(p, thrust_at(layout, j)), s),
-    };
-    (thrust, polynomial(&coefficients(p, layout.delta(j)), s))
-}
-
-fn thrust_at(layout: &Layout, j: usize) -> usize {
-    layout.thrust(j).expect("a free thrust has coefficients")
-}
-
-fn coefficients(p: &[f64], at: usize) -> [f64; NC] {
-    std::array::from_fn(|k| p[at + k])
-}
-
 /// One step of the shot ([`rk4_step`]) of segment j from y at s, in any
 /// dual number of the state (the parameters are constants).
 fn rk4<T: DualNum<Primitive = f64> + Copy>(
@@ -69,13 +51,17 @@ fn rk4<T: DualNum<Primitive = f64> + Copy>(
     s: f64,
     h: f64,
 ) -> [T; 7] {
-    let constant = |at: usize| coefficients(p, at).map(T::from);
-    let thrust = match layout.segments[j].thrust {
-        ArcKind::Bound(v) => Ok(v),
-        ArcKind::Free => Err(constant(thrust_at(layout, j))),
-    };
-    let d = T::from(p[layout.duration(j)]);
-    rk4_step(model, &mut y, d, &constant(layout.delta(j)), &thrust, s, h);
+    let c = SegmentControls::new(layout, p, j);
+    let thrust = c.thrust.map_err(|t| t.map(T::from));
+    rk4_step(
+        model,
+        &mut y,
+        T::from(c.d),
+        &c.delta.map(T::from),
+        &thrust,
+        s,
+        h,
+    );
     y
 }
 
@@ -126,7 +112,7 @@ pub fn switching(
                     .sum()
             });
         }
-        let (thrust, delta) = controls(layout, p, j, s);
+        let (thrust, delta) = SegmentControls::new(layout, p, j).at(s);
         let h_of = |tn: Dual64, dn: Dual64| {
             let yd: [Dual64; 7] = y.map(Dual64::from);
             let f = rhs_physical(model, &yd, tn, dn);
@@ -146,7 +132,8 @@ mod tests {
     use super::*;
     use crate::flown::legendre;
     use crate::input::scenario::Scenario;
-    use crate::polish::shooting::{fixture, sensitivity};
+    use crate::polish::arcs::ArcKind;
+    use crate::polish::shooting::{fixture, sensitivity, NC};
 
     /// The discrete adjoint is the gradient of Λ: integrated against a
     /// change of the thrust on a free segment, ∫ S_T·P̃_k dt matches

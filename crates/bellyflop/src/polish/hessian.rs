@@ -28,8 +28,7 @@
 //! parameters) and mapped to p once per segment.
 
 use crate::flown::legendre;
-use crate::polish::arcs::ArcKind;
-use crate::polish::shooting::{self, polynomial, Layout, Local, NC, ND};
+use crate::polish::shooting::{self, Layout, Local, SegmentControls, NC, ND};
 use crate::problem::dynamics::{rhs_physical_jacobian, weighted_rhs_hessian, Model};
 
 /// The rows of the state in the stage's variables (Vx, Vz, θ, w, m).
@@ -56,65 +55,22 @@ pub fn hessian(
         let cols = 7 + seg.params();
         let controls = SegmentControls::new(layout, p, j);
         let mut local = [[0.0; ND]; ND];
-        let mut yv: Local = [[0.0; ND]; 7];
-        for (i, row) in yv.iter_mut().enumerate() {
-            row[i] = 1.0;
-        }
-        let hs = 1.0 / seg.steps as f64;
-        for step in 0..seg.steps {
-            let s = step as f64 * hs;
-            let k = &kappa[at_step];
-            at_step += 1;
-            let stage = |y: &[f64; 7], yv: &Local, s: f64| {
-                shooting::stage(
-                    model,
-                    y,
-                    yv,
-                    controls.d,
-                    &controls.delta,
-                    &controls.thrust,
-                    s,
-                    cols,
-                )
-            };
-            let mut add = |y: &[f64; 7], yv: &Local, s: f64, kappa: &[f64; 7]| {
-                accumulate(model, &controls, y, yv, s, kappa, cols, &mut local);
-            };
-            add(&y, &yv, s, &k[0]);
-            let (k1, k1v) = stage(&y, &yv, s);
-            let (y2, y2v) = shooting::advance(&y, &yv, &k1, &k1v, 0.5 * hs, cols);
-            add(&y2, &y2v, s + 0.5 * hs, &k[1]);
-            let (k2, k2v) = stage(&y2, &y2v, s + 0.5 * hs);
-            let (y3, y3v) = shooting::advance(&y, &yv, &k2, &k2v, 0.5 * hs, cols);
-            add(&y3, &y3v, s + 0.5 * hs, &k[2]);
-            let (k3, k3v) = stage(&y3, &y3v, s + 0.5 * hs);
-            let (y4, y4v) = shooting::advance(&y, &yv, &k3, &k3v, hs, cols);
-            add(&y4, &y4v, s + hs, &k[3]);
-            let (k4, k4v) = stage(&y4, &y4v, s + hs);
-            for i in 0..7 {
-                y[i] += (k1[i] + (k2[i] + k3[i]) * 2.0 + k4[i]) * (hs / 6.0);
-                for c in 0..cols {
-                    yv[i][c] +=
-                        (k1v[i][c] + (k2v[i][c] + k3v[i][c]) * 2.0 + k4v[i][c]) * (hs / 6.0);
-                }
-            }
-        }
+        let (end, yv) = shooting::segment_sensitivity(
+            model,
+            y,
+            &controls,
+            cols,
+            seg.steps,
+            |_, _| (),
+            |step, i, ys, yvs, s| {
+                let kappa = &kappa[at_step + step][i];
+                accumulate(model, &controls, ys, yvs, s, kappa, cols, &mut local);
+            },
+        );
+        at_step += seg.steps;
         map_to_p(&local, cols, &a, o, &mut h);
-        let mut next = vec![0.0; 7 * len];
-        for (i, row) in yv.iter().enumerate() {
-            let out = &mut next[i * len..(i + 1) * len];
-            for c in 0..7 {
-                if row[c] != 0.0 {
-                    for (o, a) in out.iter_mut().zip(&a[c * len..(c + 1) * len]) {
-                        *o += row[c] * a;
-                    }
-                }
-            }
-            for c in 7..cols {
-                out[o + c - 7] += row[c];
-            }
-        }
-        a = next;
+        y = end;
+        a = shooting::chained(&yv, &a, o, seg.params());
     }
     // The two triangles agree to rounding; make them agree exactly.
     for r in 0..len {
@@ -170,39 +126,6 @@ pub fn convexified(h: &[f64], floor: f64) -> Option<Vec<f64>> {
         }
     }
     out.iter().all(|v| v.is_finite()).then_some(out)
-}
-
-/// A segment's duration, δ's coefficients and its thrust (a bound, or
-/// coefficients).
-struct SegmentControls {
-    d: f64,
-    delta: [f64; NC],
-    thrust: Result<f64, [f64; NC]>,
-}
-
-impl SegmentControls {
-    fn new(layout: &Layout, p: &[f64], j: usize) -> Self {
-        SegmentControls {
-            d: p[layout.duration(j)],
-            delta: shooting::coefficients(p, layout.delta(j)),
-            thrust: match layout.segments[j].thrust {
-                ArcKind::Bound(v) => Ok(v),
-                ArcKind::Free => Err(shooting::coefficients(
-                    p,
-                    layout.thrust(j).expect("a free thrust has coefficients"),
-                )),
-            },
-        }
-    }
-
-    /// T(s) and δ(s).
-    fn at(&self, s: f64) -> (f64, f64) {
-        let t = match &self.thrust {
-            Ok(v) => *v,
-            Err(c) => polynomial(c, s),
-        };
-        (t, polynomial(&self.delta, s))
-    }
 }
 
 /// Add one stage's term Zᵀ·∇²(d·κᵀf)·Z (module docs) to the segment's

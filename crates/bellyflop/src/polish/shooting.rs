@@ -170,6 +170,37 @@ pub(crate) fn coefficients<T: Copy>(p: &[T], at: usize) -> [T; NC] {
     std::array::from_fn(|k| p[at + k])
 }
 
+/// Segment j's controls, read from p: its duration d_j \[s\], δ's
+/// coefficients, and its thrust (a bound \[N\], or T's coefficients).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SegmentControls {
+    pub d: f64,
+    pub delta: [f64; NC],
+    pub thrust: Result<f64, [f64; NC]>,
+}
+
+impl SegmentControls {
+    pub fn new(layout: &Layout, p: &[f64], j: usize) -> Self {
+        SegmentControls {
+            d: p[layout.duration(j)],
+            delta: coefficients(p, layout.delta(j)),
+            thrust: match layout.thrust(j) {
+                Some(at) => Err(coefficients(p, at)),
+                None => Ok(bound(&layout.segments[j])),
+            },
+        }
+    }
+
+    /// T(s) \[N\] and δ(s) \[rad\] at s ∈ [0, 1].
+    pub fn at(&self, s: f64) -> (f64, f64) {
+        let t = match &self.thrust {
+            Ok(v) => *v,
+            Err(c) => polynomial(c, s),
+        };
+        (t, polynomial(&self.delta, s))
+    }
+}
+
 /// The states at every segment's end, in f64 (the last is y(t_f)).
 pub fn shoot(model: &Model, layout: &Layout, y0: [f64; 7], p: &[f64]) -> Vec<[f64; 7]> {
     shoot_with(model, layout, y0, p, |_, _| ())
@@ -186,20 +217,10 @@ pub fn shoot_with(
     let mut y = y0;
     let mut ends = Vec::with_capacity(layout.segments.len());
     for (j, seg) in layout.segments.iter().enumerate() {
-        let thrust = match layout.thrust(j) {
-            Some(at) => Err(coefficients(p, at)),
-            None => Ok(bound(seg)),
-        };
-        let d = p[layout.duration(j)];
-        y = segment(
-            model,
-            y,
-            d,
-            coefficients(p, layout.delta(j)),
-            thrust,
-            seg.steps,
-            |y| on_step(j, y),
-        );
+        let c = SegmentControls::new(layout, p, j);
+        y = segment(model, y, c.d, c.delta, c.thrust, seg.steps, |y| {
+            on_step(j, y)
+        });
         ends.push(y);
     }
     ends
@@ -329,19 +350,12 @@ pub fn sensitivity_with(
     for (j, seg) in layout.segments.iter().enumerate() {
         let o = layout.offset[j];
         let params = seg.params();
-        let local = |at: usize| coefficients(&p[o..], at);
-        let thrust = match seg.thrust {
-            ArcKind::Free => Err(local(1 + NC)),
-            ArcKind::Bound(v) => Ok(v),
-        };
-        let d = p[o];
-        let h = d / seg.steps as f64;
+        let controls = SegmentControls::new(layout, p, j);
+        let h = controls.d / seg.steps as f64;
         let (end, dend) = segment_sensitivity(
             model,
             y,
-            d,
-            local(1),
-            thrust,
+            &controls,
             7 + params,
             seg.steps,
             |ys, dys| {
@@ -361,6 +375,7 @@ pub fn sensitivity_with(
                     chain(&local, &a, o, params, &mut dlimits[at..at + len]);
                 }
             },
+            |_, _, _, _, _| (),
         );
         let mut ph = [[0.0; 7]; 7];
         let mut gj = [[0.0; MAX_SEGMENT_PARAMS]; 7];
@@ -369,11 +384,7 @@ pub fn sensitivity_with(
             gj[i][..params].copy_from_slice(&dend[i][7..7 + params]);
         }
         y = end;
-        let mut next = vec![0.0; 7 * len];
-        for (i, row) in dend.iter().enumerate() {
-            chain(row, &a, o, params, &mut next[i * len..(i + 1) * len]);
-        }
-        a = next;
+        a = chained(&dend, &a, o, params);
         phi.push(ph);
         g.push(gj);
     }
@@ -397,6 +408,17 @@ pub fn sensitivity_with(
         dvz,
         dlimits,
     }
+}
+
+/// ∂y(end of a segment)/∂p (7 rows of len) from its local derivatives
+/// `yv` and `a` = ∂y(its start)/∂p ([`chain`] row by row).
+pub(crate) fn chained(yv: &Local, a: &[f64], o: usize, params: usize) -> Vec<f64> {
+    let len = a.len() / 7;
+    let mut next = vec![0.0; 7 * len];
+    for (i, row) in yv.iter().enumerate() {
+        chain(row, a, o, params, &mut next[i * len..(i + 1) * len]);
+    }
+    next
 }
 
 /// ∂v/∂p of a value v of the current segment from its local derivatives
@@ -427,23 +449,18 @@ pub(crate) type Local = [[f64; ND]; 7];
 /// local derivatives kv = d·(f_y·yv + f_T·∂T/∂v + f_δ·∂δ/∂v) + f·∂d/∂v on
 /// the first `cols` columns, with f and its Jacobian written out
 /// ([`rhs_physical_jacobian`]). The value k is [`rk4_step`]'s to the bit.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn stage(
+fn stage(
     model: &Model,
     y: &[f64; 7],
     yv: &Local,
-    d: f64,
-    a: &[f64; NC],
-    thrust: &Result<f64, [f64; NC]>,
+    controls: &SegmentControls,
     s: f64,
     cols: usize,
 ) -> ([f64; 7], Local) {
     let basis = legendre(s);
-    let t = match thrust {
-        Ok(v) => *v,
-        Err(c) => polynomial(c, s),
-    };
-    let (f, jac) = rhs_physical_jacobian(model, y, t, polynomial(a, s));
+    let d = controls.d;
+    let (t, delta) = controls.at(s);
+    let (f, jac) = rhs_physical_jacobian(model, y, t, delta);
     let k = f.map(|v| v * d);
     let mut kv = [[0.0; ND]; 7];
     for c in 0..cols {
@@ -463,7 +480,7 @@ pub(crate) fn stage(
         for r in [2, 3, 5] {
             kv[r][8 + k] += d * jac[r][8] * b;
         }
-        if thrust.is_err() {
+        if controls.thrust.is_err() {
             for r in [2, 3, 5, 6] {
                 kv[r][8 + NC + k] += d * jac[r][7] * b;
             }
@@ -473,7 +490,7 @@ pub(crate) fn stage(
 }
 
 /// y + h·k and yv + h·kv (the first `cols` columns).
-pub(crate) fn advance(
+fn advance(
     y: &[f64; 7],
     yv: &Local,
     k: &[f64; 7],
@@ -494,18 +511,19 @@ pub(crate) fn advance(
 /// every RK4 stage (the discrete variational equations: the same
 /// derivatives as forward-mode differentiation of [`rk4_step`], whose
 /// values it reproduces to the bit), on the first `cols` columns (7 and
-/// the segment's parameters). Calls `on_step(y, yv)` after every step;
-/// returns the end state and its local derivatives.
-#[allow(clippy::too_many_arguments)]
-fn segment_sensitivity(
+/// the segment's parameters). Calls `on_stage(step, i, Y_i, ∂Y_i, s_i)`
+/// at each stage i ∈ 0..4 of every step before its evaluation
+/// ([`crate::polish::hessian`] sums its second derivatives there) and
+/// `on_step(y, yv)` after every step; returns the end state and its local
+/// derivatives.
+pub(crate) fn segment_sensitivity(
     model: &Model,
     y0: [f64; 7],
-    d: f64,
-    a: [f64; NC],
-    thrust: Result<f64, [f64; NC]>,
+    controls: &SegmentControls,
     cols: usize,
     steps: usize,
     mut on_step: impl FnMut(&[f64; 7], &Local),
+    mut on_stage: impl FnMut(usize, usize, &[f64; 7], &Local, f64),
 ) -> ([f64; 7], Local) {
     let h = 1.0 / steps as f64;
     let mut y = y0;
@@ -515,13 +533,17 @@ fn segment_sensitivity(
     }
     for step in 0..steps {
         let s = step as f64 * h;
-        let (k1, k1v) = stage(model, &y, &yv, d, &a, &thrust, s, cols);
+        let mut stage = |i: usize, y: &[f64; 7], yv: &Local, s: f64| {
+            on_stage(step, i, y, yv, s);
+            stage(model, y, yv, controls, s, cols)
+        };
+        let (k1, k1v) = stage(0, &y, &yv, s);
         let (y2, y2v) = advance(&y, &yv, &k1, &k1v, 0.5 * h, cols);
-        let (k2, k2v) = stage(model, &y2, &y2v, d, &a, &thrust, s + 0.5 * h, cols);
+        let (k2, k2v) = stage(1, &y2, &y2v, s + 0.5 * h);
         let (y3, y3v) = advance(&y, &yv, &k2, &k2v, 0.5 * h, cols);
-        let (k3, k3v) = stage(model, &y3, &y3v, d, &a, &thrust, s + 0.5 * h, cols);
+        let (k3, k3v) = stage(2, &y3, &y3v, s + 0.5 * h);
         let (y4, y4v) = advance(&y, &yv, &k3, &k3v, h, cols);
-        let (k4, k4v) = stage(model, &y4, &y4v, d, &a, &thrust, s + h, cols);
+        let (k4, k4v) = stage(3, &y4, &y4v, s + h);
         for i in 0..7 {
             y[i] += (k1[i] + (k2[i] + k3[i]) * 2.0 + k4[i]) * (h / 6.0);
             for c in 0..cols {
@@ -643,7 +665,20 @@ mod tests {
         let tc = [1.6e6, 2e5, -1e5, 3e4];
         for thrust in [Ok(2.0e6), Err(tc)] {
             let cols = 7 + 1 + NC + if thrust.is_err() { NC } else { 0 };
-            let (y, yv) = segment_sensitivity(&model, y0, d, a, thrust, cols, 23, |_, _| ());
+            let controls = SegmentControls {
+                d,
+                delta: a,
+                thrust,
+            };
+            let (y, yv) = segment_sensitivity(
+                &model,
+                y0,
+                &controls,
+                cols,
+                23,
+                |_, _| (),
+                |_, _, _, _, _| (),
+            );
             let mut plain = y0;
             for k in 0..23 {
                 rk4_step(
