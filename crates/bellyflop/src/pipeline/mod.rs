@@ -108,20 +108,24 @@ fn with_finer_mesh(
         return sol;
     };
     let nodes = finer.discretization.nodes;
-    let mut other = solve_with(&finer, settings, observer);
-    other.solve_time_ms += sol.solve_time_ms;
+    // A solved answer's message is empty; its `nodes` name the mesh.
+    second_try(sol, solve_with(&finer, settings, observer), |reason| {
+        format!("on a uniform mesh of {nodes} nodes, not solved either: {reason}")
+    })
+}
+
+/// The second try `other` of an answer `first` that is not `solved`:
+/// `other` when it is solved, else `first` with the reason `why(other's
+/// message)` added; either way with the time of both solves.
+fn second_try(first: Solution, mut other: Solution, why: impl FnOnce(&str) -> String) -> Solution {
+    other.solve_time_ms += first.solve_time_ms;
     if other.status == Status::Solved {
-        // A solved answer's message is empty; its `nodes` name the mesh.
-        other
-    } else {
-        let mut sol = sol;
-        sol.solve_time_ms = other.solve_time_ms;
-        sol.message = format!(
-            "{}; on a uniform mesh of {nodes} nodes, not solved either: {}",
-            sol.message, other.message
-        );
-        sol
+        return other;
     }
+    let mut sol = first;
+    sol.solve_time_ms = other.solve_time_ms;
+    sol.message = format!("{}; {}", sol.message, why(&other.message));
+    sol
 }
 
 /// The scenario on a uniform mesh of twice its nodes, where its own mesh is
@@ -154,20 +158,12 @@ fn with_scvx(
         method: Method::Scvx,
         ..settings.clone()
     };
-    let mut other = solve_with(scenario, &scvx, observer);
-    other.solve_time_ms += sol.solve_time_ms;
-    if other.status == Status::Solved {
-        // Its `method` says which answered.
-        other
-    } else {
-        let mut sol = sol;
-        sol.solve_time_ms = other.solve_time_ms;
-        sol.message = format!(
-            "{}; SCvx, which holds every limit at its nodes, did not give a solved answer either: {}",
-            sol.message, other.message
-        );
-        sol
-    }
+    // A solved answer's `method` says which answered.
+    second_try(sol, solve_with(scenario, &scvx, observer), |reason| {
+        format!(
+            "SCvx, which holds every limit at its nodes, did not give a solved answer either: {reason}"
+        )
+    })
 }
 
 /// Whether the scenario has operational rows other than the pitch-rate
@@ -313,5 +309,42 @@ pub fn not_proven(scenario: &Scenario, sol: &mut Solution) {
             sol.method.as_str(),
             sol.message
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::method::observer::Silent;
+
+    /// A second try replaces the answer only when it is `solved`; either
+    /// way the answer carries both solves' time, and a failed second try
+    /// adds its reason to the first answer's.
+    #[test]
+    fn a_second_try_replaces_the_answer_only_when_solved() {
+        let scenario = Scenario::paper();
+        let settings = SolverSettings {
+            polish: false,
+            ..SolverSettings::default()
+        };
+        let raw = solve_with(&scenario, &settings, &mut Silent);
+        let mut first = raw.clone();
+        first.status = Status::Inaccurate;
+        first.message = "first reason".into();
+        first.solve_time_ms = 2.0;
+        let mut other = raw.clone();
+        other.solve_time_ms = 3.0;
+        other.status = Status::Solved;
+        other.message.clear();
+        let why = |reason: &str| format!("the second: {reason}");
+        let kept = second_try(first.clone(), other.clone(), why);
+        assert_eq!(kept.status, Status::Solved);
+        assert_eq!((kept.message.as_str(), kept.solve_time_ms), ("", 5.0));
+        other.status = Status::NotConverged;
+        other.message = "second reason".into();
+        let kept = second_try(first, other, why);
+        assert_eq!(kept.status, Status::Inaccurate);
+        assert_eq!(kept.message, "first reason; the second: second reason");
+        assert_eq!(kept.solve_time_ms, 5.0);
     }
 }
