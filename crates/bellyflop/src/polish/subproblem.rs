@@ -458,6 +458,25 @@ impl Solved {
     }
 }
 
+impl Solved {
+    /// The step that also removes the terminal residual `residual` (R⁻¹·r̂
+    /// of the step's own landing, [`crate::polish`]'s second-order
+    /// correction) on this answer's active set, from its factors
+    /// ([`crate::polish::active_set::Solver::moved`]): the step Δp̂ + δ with
+    /// J·S·δ = −`residual` and every active row kept. None in the elastic
+    /// form (a slack would take the shift) or where it breaks a row.
+    pub fn corrected(&self, residual: &[f64; 6]) -> Option<Vec<f64>> {
+        if self.form != Form::Hard || !self.with_terminal {
+            return None;
+        }
+        let moved: Vec<(usize, f64)> = (0..6)
+            .map(|i| (self.terminal_at + i, -residual[i]))
+            .collect();
+        let x = self.solver.as_ref()?.moved(&moved)?;
+        Some(x[..self.n].to_vec())
+    }
+}
+
 /// The rows that a step within the trust box Δ can reach: a row with
 /// Σ|a_i|·Δ < b holds on the whole box and changes nothing in the answer
 /// (most of the grid's rows are far from their bounds).
