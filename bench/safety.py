@@ -20,6 +20,7 @@ piece by piece, with the dynamics of Eq. (1)-(3) written again
     bench/reference/.venv/bin/python bench/safety.py                  # 150 + 150 states
     bench/reference/.venv/bin/python bench/safety.py --box 10 --wide 10 --table
     bench/reference/.venv/bin/python bench/safety.py --bin OTHER/bellyflop   # another build, same states
+    bench/reference/.venv/bin/python bench/safety.py --box 0 --wide 0 --table --scenario FILE.toml
 """
 import argparse
 import json
@@ -111,12 +112,15 @@ def main():
     ap.add_argument("--bin", default=str(BIN))
     ap.add_argument("--table", action="store_true", help="one line per state")
     ap.add_argument("--save", metavar="JSON")
+    ap.add_argument("--scenario", action="append", default=[], metavar="FILE",
+                    help="a scenario file to check too, as it is (named file:STEM)")
     args = ap.parse_args()
+    cases = [(name, state, scenario_text(state, 20)) for name, state in states(args.box, args.wide, args.seed)]
+    cases += [(f"file:{Path(f).stem}", None, Path(f).read_text()) for f in args.scenario]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "state.toml"
-        for name, state in states(args.box, args.wide, args.seed):
-            text = scenario_text(state, 20)
+        for name, state, text in cases:
             path.write_text(text)
             sc = tomllib.loads(text)
             out = subprocess.run([args.bin, "solve", "--scenario", str(path), "--json", "--quiet"],
@@ -138,8 +142,10 @@ def main():
                     print(f"{name:8s} {row['status']}: {row['message'][:160]}", flush=True)
     if args.save:
         Path(args.save).write_text(json.dumps(rows, indent=1, default=float))
-    for kind in ("box", "wide"):
+    for kind in ("box", "wide", "file"):
         rs = [r for r in rows if r["name"].startswith(kind)]
+        if not rs:
+            continue
         solved = [r for r in rs if r["status"] == "solved"]
         other = {}
         for r in rs:

@@ -163,3 +163,33 @@ fn the_newton_mode_lands_and_ends_at_least_as_heavy_in_fewer_iterations() {
         iterations(&proximal)
     );
 }
+
+/// A start with the gimbal at its bound (the fuzz corpus's
+/// `gimbal_at_limit.toml`) is polished on its own N = 20 mesh: the first
+/// segment's δ rows hold |δ| ≤ |δ₀| there, not the margin inside the
+/// bound, which next to δ(0) = δ_max asked for a slope that the rate bound
+/// forbids (the projection QP was inconsistent, and only the retry on 40
+/// nodes was solved). Its flown δ stays within δ_max at every millisecond.
+#[test]
+fn a_start_with_the_gimbal_at_its_bound_is_polished_on_its_own_mesh() {
+    let mut scenario = Scenario::paper();
+    let i = &mut scenario.initial;
+    (i.x_m, i.z_m, i.vx_mps, i.vz_mps, i.mass_kg) = (100.0, 600.0, 0.0, -85.0, 120_000.0);
+    i.gimbal_deg = scenario.vehicle.max_gimbal_deg;
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    assert_eq!(sol.status, Status::Solved, "{}", sol.message);
+    assert_eq!(sol.nodes, 20, "solved by the retry on a finer mesh");
+    let flown = sol.controls_flown.as_ref().expect("flown controls");
+    let delta_max = scenario.vehicle.max_gimbal_deg.to_radians();
+    let steps = (flown.tf_s() * 1e3).ceil() as usize;
+    for k in 0..=steps {
+        let t = (k as f64 * 1e-3).min(flown.tf_s());
+        let (_, delta, _) = flown.at(t).expect("within [0, t_f]");
+        assert!(
+            delta.abs() <= delta_max * (1.0 + 1e-12),
+            "δ({t}) = {delta}, δ_max {delta_max}"
+        );
+    }
+    let end = rk4_landing(&scenario, flown);
+    assert!(end[0].abs() < 1e-2 && end[1].abs() < 1e-2, "{end:?}");
+}

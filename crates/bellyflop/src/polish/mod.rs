@@ -1029,7 +1029,7 @@ fn bounded_step(
             &problem.model,
             &problem.scales,
             p,
-            subproblem::BOUND_MARGIN,
+            (subproblem::BOUND_MARGIN, problem.delta0),
             &candidate,
         );
         if solved.add(&extra) {

@@ -119,7 +119,7 @@ pub fn bound_rows(
     margin: f64,
     also: Option<&[f64]>,
 ) -> Rows {
-    let bounds = Bounds::new(model, scales, p, margin);
+    let bounds = Bounds::new(model, scales, p, margin, delta0);
     let mut rows = Rows::default();
     let last = layout.segments.len() - 1;
     let grid = || (0..GRID).map(|g| g as f64 / (GRID - 1) as f64);
@@ -128,7 +128,7 @@ pub fn bound_rows(
         let (delta_extrema, rate_extrema) = critical_points(&p[aj..aj + NC]);
         // δ(0) of the first segment is δ_0, fixed by an equality.
         let first = usize::from(j == 0);
-        bounds.delta(aj, grid().skip(first).chain(delta_extrema), &mut rows);
+        bounds.delta(j, aj, grid().skip(first).chain(delta_extrema), &mut rows);
         bounds.rate(aj, dj, grid().chain([rate_extrema]), &mut rows);
         if let Some(at) = layout.thrust(j) {
             let (thrust_extrema, _) = critical_points(&p[at..at + NC]);
@@ -151,27 +151,29 @@ pub fn bound_rows(
     }
     if let Some(q) = also {
         rows.le
-            .extend(extrema_rows(layout, model, scales, p, margin, q));
+            .extend(extrema_rows(layout, model, scales, p, (margin, delta0), q));
     }
     rows
 }
 
-/// The bound rows of T, δ and χ linearized at p, at the interior extrema
-/// of the polynomials of q (only there: [`bound_rows`] adds the grid).
+/// The bound rows of T, δ and χ linearized at p, `margin` inside (δ on
+/// the first segment as the start δ₀ allows, [`bound_rows`]), at the
+/// interior extrema of the polynomials of q (only there: [`bound_rows`]
+/// adds the grid).
 pub fn extrema_rows(
     layout: &Layout,
     model: &Model,
     scales: &Scales,
     p: &[f64],
-    margin: f64,
+    (margin, delta0): (f64, f64),
     q: &[f64],
 ) -> Vec<(Vec<(usize, f64)>, f64)> {
-    let bounds = Bounds::new(model, scales, p, margin);
+    let bounds = Bounds::new(model, scales, p, margin, delta0);
     let mut rows = Rows::default();
     for j in 0..layout.segments.len() {
         let (dj, aj) = (layout.duration(j), layout.delta(j));
         let (delta_extrema, rate_extrema) = critical_points(&q[aj..aj + NC]);
-        bounds.delta(aj, delta_extrema.into_iter(), &mut rows);
+        bounds.delta(j, aj, delta_extrema.into_iter(), &mut rows);
         bounds.rate(aj, dj, std::iter::once(rate_extrema), &mut rows);
         if let Some(at) = layout.thrust(j) {
             let (thrust_extrema, _) = critical_points(&q[at..at + NC]);
@@ -186,17 +188,26 @@ struct Bounds<'a> {
     sc: &'a [f64],
     p: &'a [f64],
     delta_max: f64,
+    /// |δ| on the first segment: `delta_max`, or |δ₀| where δ₀ lies
+    /// within the margin of its bound. δ(0) = δ₀ is fixed there, and the
+    /// margin's rows next to s = 0 would ask for a slope that the rate
+    /// bound forbids: measured, the projection QP of a start at δ_max
+    /// (`fuzz/corpus/scenario/gimbal_at_limit.toml`) was inconsistent and
+    /// the polish failed.
+    first_delta_max: f64,
     rate_max: f64,
     thrust: (f64, f64),
 }
 
 impl<'a> Bounds<'a> {
-    fn new(model: &Model, scales: &'a Scales, p: &'a [f64], margin: f64) -> Self {
+    fn new(model: &Model, scales: &'a Scales, p: &'a [f64], margin: f64, delta0: f64) -> Self {
         let margin_t = margin * (model.max_thrust_n - model.min_thrust_n);
+        let delta_max = model.max_gimbal_rad * (1.0 - margin);
         Bounds {
             sc: &scales.0,
             p,
-            delta_max: model.max_gimbal_rad * (1.0 - margin),
+            delta_max,
+            first_delta_max: delta_max.max(delta0.abs().min(model.max_gimbal_rad)),
             rate_max: model.max_gimbal_rate_radps * (1.0 - RATE_MARGIN_FACTOR * margin),
             thrust: (model.min_thrust_n + margin_t, model.max_thrust_n - margin_t),
         }
@@ -211,12 +222,17 @@ impl<'a> Bounds<'a> {
         (terms, value)
     }
 
-    /// |δ(s)| ≤ δ_max at the finite points s.
-    fn delta(&self, at: usize, points: impl Iterator<Item = f64>, rows: &mut Rows) {
+    /// |δ(s)| ≤ δ_max on segment j at the finite points s.
+    fn delta(&self, j: usize, at: usize, points: impl Iterator<Item = f64>, rows: &mut Rows) {
+        let limit = if j == 0 {
+            self.first_delta_max
+        } else {
+            self.delta_max
+        };
         for s in points.filter(|s| s.is_finite()) {
             let (terms, v) = self.poly(at, &legendre(s));
-            rows.le.push((terms.clone(), self.delta_max - v));
-            rows.le.push((negate(&terms), self.delta_max + v));
+            rows.le.push((terms.clone(), limit - v));
+            rows.le.push((negate(&terms), limit + v));
         }
     }
 
