@@ -21,7 +21,7 @@
 //! ([`crate::verify::path::LIMIT_TOLERANCE`]) on every row too.
 
 use crate::polish::shooting::{Layout, Sensitivity, Track};
-use crate::problem::constraints::Row;
+use crate::problem::constraints::{Limit, Row};
 
 /// The metres of v(p) per unit of g/scale: the ground check's tolerance
 /// over the limits'.
@@ -108,6 +108,22 @@ pub fn violation(track: &Track, rows: &[Row]) -> f64 {
     v
 }
 
+/// The row that the track breaks most by [`violation`]'s measure: its
+/// limit and its value g there, in the row's unit ([`Limit::unit`]); None
+/// when every row holds (the messages name it).
+pub fn worst(track: &Track, rows: &[Row]) -> Option<(Limit, f64)> {
+    let mut most: Option<(f64, Limit, f64)> = None;
+    for row in rows {
+        points(track, row, |p| {
+            let v = p.value / row.scale() * UNIT_M;
+            if v > 0.0 && most.is_none_or(|(m, _, _)| v > m) {
+                most = Some((v, row.limit, p.value));
+            }
+        });
+    }
+    most.map(|(_, limit, g)| (limit, g))
+}
+
 /// The linearized rows a·Δp̂ − ν ≤ b in the scaled step, in v's metres:
 /// a = (∂g*/∂p)·S·UNIT_M/scale, b = −(g* + MARGIN·scale)·UNIT_M/scale, for
 /// the points within reach of their bound in one step of the trust region
@@ -154,6 +170,43 @@ mod tests {
     use crate::polish::shooting::{self, fixture};
     use crate::problem::constraints::{self, Constraints};
     use crate::problem::dynamics::Model;
+
+    /// [`worst`] names the row that sets [`violation`]: a tight pitch-rate
+    /// limit on a pitching shot is broken, and its rate there is the
+    /// violation in its own unit; with loose limits no row is named.
+    #[test]
+    fn the_worst_row_is_the_one_that_sets_the_violation() {
+        let mut s = Scenario::paper();
+        let model = Model::new(&s.vehicle, &s.environment);
+        let (layout, p, _) = fixture::dip(&model);
+        let y0 = [0.0, 40.0, 3.0, -20.0, 0.1, 0.08, 100_000.0];
+        let (_, track) = shooting::shoot_track(&model, &layout, y0, &p);
+        let peak_rate = track.states.iter().map(|y| y[5].abs()).fold(0.0, f64::max);
+        for (bound_degps, broken) in [(0.5 * peak_rate.to_degrees(), true), (1e3, false)] {
+            s.constraints = Constraints {
+                max_pitch_rate_degps: Some(bound_degps),
+                ..Constraints::default()
+            };
+            let rows = constraints::rows(&s);
+            let v = violation(&track, &rows);
+            match worst(&track, &rows) {
+                Some((limit, g)) => {
+                    assert!(broken, "a row named with loose limits: {limit:?}");
+                    assert_eq!(limit, constraints::Limit::PitchRate);
+                    let scale = rows[0].scale();
+                    assert!(
+                        (g / scale * UNIT_M - v).abs() <= 1e-12 * v,
+                        "{g} against {v}"
+                    );
+                    // The broken side's value: the peak rate over the bound
+                    // (the peak interpolated between step ends, near theirs).
+                    let over = peak_rate - bound_degps.to_radians();
+                    assert!((g - over).abs() <= 0.05 * over, "{g} against {over}");
+                }
+                None => assert!(!broken && v == 0.0, "no row named, violation {v}"),
+            }
+        }
+    }
 
     /// The peak of each row along a shot, and its gradient against every
     /// parameter, by central finite differences of the shot.

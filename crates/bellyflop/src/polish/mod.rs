@@ -42,7 +42,7 @@ use crate::polish::shooting::{Layout, NC};
 use crate::polish::subproblem::{
     linear_rows, Qp, Scales, Solved, Terminal, MASS_SCALE_KG, RESIDUAL_SCALE, SLACK_WEIGHT,
 };
-use crate::problem::constraints::{self, Row};
+use crate::problem::constraints::{self, Limit, Row};
 use crate::problem::dynamics::Model;
 use crate::solution::{Optimality, PolishIteration, PolishReport, PolishStructure, Solution};
 
@@ -127,8 +127,40 @@ pub enum PolishError {
     },
     #[error("the shot left the finite numbers (the controls drove the state to infinity)")]
     NonFinite,
-    #[error("the polish stopped after {iterations} iterations with its path {violation:.3e} m below the ground (or kg below the dry mass)")]
-    Path { iterations: usize, violation: f64 },
+    #[error("the polish stopped after {iterations} iterations with {by}")]
+    Path {
+        iterations: usize,
+        /// The path violation v(p) ([`ground::violation`], [`limits::violation`]).
+        violation: f64,
+        by: PathBreach,
+    },
+}
+
+/// What a shot that keeps no path breaks most.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PathBreach {
+    /// The ground (or the dry mass), by `depth` m (kg).
+    Ground { depth: f64 },
+    /// An operational limit, its row's value `value` in its unit
+    /// ([`Limit::unit`]) above its bound.
+    Limit { limit: Limit, value: f64 },
+}
+
+impl std::fmt::Display for PathBreach {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PathBreach::Ground { depth } => write!(
+                f,
+                "its path {depth:.3e} m below the ground (or kg below the dry mass)"
+            ),
+            PathBreach::Limit { limit, value } => write!(
+                f,
+                "{} broken along its path by {value:.3e} {}",
+                limit.describe(),
+                limit.unit()
+            ),
+        }
+    }
 }
 
 /// A polished answer.
@@ -218,6 +250,18 @@ impl Problem {
             path: ground::violation(track, &self.layout, self.z_f(), y[6], self.dry_mass_kg)
                 .max(limits::violation(track, &self.limits)),
             below: ground::below(track, self.z_f()),
+        }
+    }
+
+    /// What the shot of p breaks most along its path ([`PathBreach`]).
+    fn breach(&self, p: &[f64]) -> PathBreach {
+        let (y, track) = shooting::shoot_track(&self.model, &self.layout, self.y0, p);
+        let depth = ground::violation(&track, &self.layout, self.z_f(), y[6], self.dry_mass_kg);
+        match limits::worst(&track, &self.limits) {
+            Some((limit, value)) if limits::violation(&track, &self.limits) > depth => {
+                PathBreach::Limit { limit, value }
+            }
+            _ => PathBreach::Ground { depth },
         }
     }
 
@@ -379,6 +423,7 @@ fn run_on(problem: &Problem, p: &[f64], report: &mut PolishReport) -> Result<Run
         return Err(PolishError::Path {
             iterations,
             violation: shot.path,
+            by: problem.breach(&p),
         });
     }
     let switching = switching(problem, &p, &last);
@@ -1240,4 +1285,36 @@ fn flown(layout: &Layout, p: &[f64]) -> FlownControls {
         })
         .collect();
     FlownControls { pieces }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A polish that ends off its path says what it breaks: the ground
+    /// (or the dry mass), or the operational limit by name and unit.
+    #[test]
+    fn a_path_error_names_what_the_path_breaks() {
+        let ground = PolishError::Path {
+            iterations: 30,
+            violation: 0.5,
+            by: PathBreach::Ground { depth: 0.5 },
+        };
+        assert_eq!(
+            ground.to_string(),
+            "the polish stopped after 30 iterations with its path 5.000e-1 m below the ground (or kg below the dry mass)"
+        );
+        let cone = PolishError::Path {
+            iterations: 30,
+            violation: 1.648,
+            by: PathBreach::Limit {
+                limit: Limit::Cone,
+                value: 1.648,
+            },
+        };
+        assert_eq!(
+            cone.to_string(),
+            "the polish stopped after 30 iterations with the approach cone broken along its path by 1.648e0 m"
+        );
+    }
 }
