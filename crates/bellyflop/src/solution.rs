@@ -9,6 +9,7 @@ use crate::collocation::trajectory::Trajectory;
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::settings::{Formulation, Method};
 use crate::problem::dynamics::{self, ix, Model};
+use crate::problem::feasibility::Certificate;
 
 /// How a solve ended. Each variant has its own exit code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -19,7 +20,9 @@ pub enum Status {
     /// Converged, but the relaxation is not tight or the thrust points backwards.
     NonPhysical,
     /// No trajectory exists. From [`crate::solve`] only with a certificate
-    /// ([`crate::problem::feasibility`]), computed before solving. The methods on
+    /// ([`crate::problem::feasibility`], in `certificate`), computed before
+    /// solving, or (the approach cone's) after the methods found no
+    /// trajectory that holds the operational limits. The methods on
     /// their own ([`crate::method::scvx::solve`], [`crate::method::direct::solve`], the
     /// closed loop's re-plans) also report a local infeasibility this way —
     /// a point that still needs virtual control, or a failed feasibility
@@ -486,6 +489,10 @@ pub struct Solution {
     /// them was found (`not_converged` with limits: [`LimitEvidence`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub limit_evidence: Option<LimitEvidence>,
+    /// Why no trajectory exists, the proof behind an `infeasible` answer
+    /// ([`crate::problem::feasibility`]); its message is the answer's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub certificate: Option<Certificate>,
     /// The LCvx trajectory itself, for warm starts and re-propagation.
     #[serde(skip)]
     pub trajectory: Trajectory,
@@ -599,6 +606,7 @@ impl Solution {
             optimality: None,
             path: None,
             limit_evidence: None,
+            certificate: None,
             trajectory: Trajectory {
                 x: Vec::new(),
                 u: Vec::new(),
@@ -652,6 +660,7 @@ impl Solution {
         self.refinement = None;
         self.controls_flown = None;
         self.path = None;
+        self.certificate = None;
     }
 
     /// This answer as a plan to fly: its trajectory, mesh and formulation,

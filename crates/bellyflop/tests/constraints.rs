@@ -146,6 +146,32 @@ fn an_initial_state_outside_a_limit_is_infeasible_with_its_reason() {
     assert!(sol.message.contains("pitch-rate"), "{}", sol.message);
 }
 
+/// The paper's case mirrored to x0 = −100 m falls with its thrust along
+/// −x, away from the pad: no control history keeps it inside a 20° cone
+/// until it can land, and the methods find no trajectory either. The
+/// answer is `infeasible`, with the cone's reachability certificate (which
+/// side, when, by how much) as its message and in its JSON.
+#[test]
+fn a_cone_that_no_control_can_hold_is_infeasible_with_where_it_is_left() {
+    let mut s = with(Constraints {
+        cone_half_angle_deg: Some(20.0),
+        ..Default::default()
+    });
+    s.initial.x_m = -100.0;
+    let sol = solve(&s);
+    assert_eq!(sol.status, Status::Infeasible, "{}", sol.message);
+    assert!(
+        sol.message.contains("approach cone") && sol.message.contains("−x side"),
+        "{}",
+        sol.message
+    );
+    let json = serde_json::to_value(&sol).unwrap();
+    let c = &json["certificate"];
+    assert_eq!(c["kind"], "cone", "{c}");
+    assert_eq!(c["side"], "negative_x", "{c}");
+    assert!(c["time_s"].as_f64().unwrap() < c["landing_not_before_s"].as_f64().unwrap());
+}
+
 /// A 10° cone about the pad holds the paper's initial state (9.46° off the
 /// vertical) but not the flip's lateral travel (IPOPT on the same
 /// transcription: locally infeasible too): no trajectory is found,

@@ -300,7 +300,10 @@ fn infeasible_only_with_proof(scenario: &Scenario, out: &mut Solution) {
         return;
     }
     match feasibility::certify(scenario) {
-        Some(certificate) => out.message = certificate.to_string(),
+        Some(certificate) => {
+            out.message = certificate.to_string();
+            out.certificate = Some(certificate);
+        }
         None => pipeline::not_proven(scenario, out),
     }
 }

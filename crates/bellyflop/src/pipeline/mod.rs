@@ -43,7 +43,10 @@ pub mod evidence;
 /// says so), both times counted. On issue 15's 150 states this rescues 4
 /// of the tilt limit's, 1 of the final descent's and 4 of all four's
 /// (BENCHMARKS.md, "Issue 37"). A constrained state left `not_converged`
-/// carries where its limits cut ([`evidence`]), its solves counted too.
+/// carries where its limits cut ([`evidence`]), its solves counted too,
+/// unless [`feasibility::certify_limits`] proves that no trajectory holds
+/// them (the approach cone's reachability bound, tens of milliseconds,
+/// paid only here): then it is `infeasible`, the certificate its message.
 ///
 /// With `solver.refinement.tolerance` > 0 the mesh is refined until every
 /// interval's relative error is within it ([`refine::solve`]), and step 3
@@ -60,6 +63,9 @@ pub fn solve(
     observer: &mut dyn Observer,
 ) -> Solution {
     let mut sol = with_fallback(scenario, settings, observer);
+    if evidence::wanted(scenario, &sol) && certified_late(scenario, &mut sol) {
+        return sol;
+    }
     if evidence::wanted(scenario, &sol) {
         let (found, ms) = evidence::gather(scenario, settings);
         sol.message = format!(
@@ -71,6 +77,22 @@ pub fn solve(
         sol.limit_evidence = Some(found);
     }
     sol
+}
+
+/// A `not_converged` answer with limits that [`feasibility::certify_limits`]
+/// proves infeasible becomes `infeasible`, the certificate its message,
+/// the certificate's time in its solve time. Returns whether it did.
+fn certified_late(scenario: &Scenario, sol: &mut Solution) -> bool {
+    let clock = std::time::Instant::now();
+    let Some(certificate) = feasibility::certify_limits(scenario) else {
+        sol.solve_time_ms += clock.elapsed().as_secs_f64() * 1e3;
+        return false;
+    };
+    sol.status = Status::Infeasible;
+    sol.message = format!("{certificate}; the methods found no trajectory either");
+    sol.certificate = Some(certificate);
+    sol.solve_time_ms += clock.elapsed().as_secs_f64() * 1e3;
+    true
 }
 
 /// [`solve_with`], SCvx after a direct answer that is not `solved` when
@@ -190,13 +212,14 @@ fn solve_with(
     let mut sol = match feasibility::certify(scenario) {
         Some(certificate) => {
             let ms = start.elapsed().as_secs_f64() * 1e3;
-            let sol = method::guess_answer(
+            let mut sol = method::guess_answer(
                 scenario,
                 settings,
                 Status::Infeasible,
                 certificate.to_string(),
                 ms,
             );
+            sol.certificate = Some(certificate);
             if refining {
                 refine::not_started(sol, settings.refinement.tolerance, start)
             } else {

@@ -6,9 +6,13 @@
 //! is reported only with a [`Certificate`]: a bound, valid for every control
 //! history, that the boundary conditions cannot meet.
 //!
-//! [`certify`], before any solve: the initial state against the limits,
-//! and the vertical stopping bound ([`stopping`]) against the altitude and
-//! the propellant.
+//! - [`certify`], before any solve: the initial state against the limits,
+//!   and the vertical stopping bound ([`stopping`]) against the altitude
+//!   and the propellant;
+//! - [`certify_limits`], after the methods found no trajectory that holds
+//!   the operational limits: the reachability bound on the approach cone
+//!   ([`cone`]), which costs tens of milliseconds and so is not paid by the
+//!   solves that succeed.
 
 use std::fmt;
 
@@ -17,13 +21,15 @@ use serde::Serialize;
 use crate::input::scenario::Scenario;
 use crate::problem::constraints::{self, Limit};
 
+pub mod cone;
 pub mod stopping;
 
+pub use cone::{cone_bound, ConeBound};
 pub use stopping::{stopping_bound, StoppingBound};
 
 /// Absolute altitude margin of the altitude certificate \[m\].
 const ALTITUDE_MARGIN_M: f64 = 1.0;
-/// Relative margin of both certificates (on h and on t_burn).
+/// Relative margin of the certificates (on h and on t_burn).
 const RELATIVE_MARGIN: f64 = 1e-3;
 
 /// Why no trajectory exists.
@@ -37,6 +43,9 @@ pub enum Certificate {
     /// The initial state already breaks an operational path constraint
     /// (issue 37), which must hold along the whole flight from t = 0.
     InitialState(InitialViolation),
+    /// Every control history leaves the approach cone before it can have
+    /// landed.
+    Cone(ConeBound),
 }
 
 /// An operational constraint that the initial state breaks: its row g(y₀)
@@ -68,6 +77,15 @@ impl fmt::Display for Certificate {
                 v.excess,
                 v.limit.unit()
             ),
+            Certificate::Cone(b) => write!(
+                f,
+                "no trajectory exists (certified from the initial state by a reachability bound on the approach cone): whatever the thrust, gimbal and attitude, the vehicle is at least {:.1} m outside the {:.1}° cone on the {} side of the pad at t = {:.2} s, and it cannot have landed before t = {:.2} s (the vertical stopping bound)",
+                b.outside_m,
+                b.half_angle_deg,
+                b.side.describe(),
+                b.time_s,
+                b.landing_not_before_s
+            ),
         }
     }
 }
@@ -86,6 +104,17 @@ pub fn certify(s: &Scenario) -> Option<Certificate> {
     } else {
         None
     }
+}
+
+/// A certificate that no trajectory holds the operational limits, beyond
+/// [`certify`]'s: the cone's reachability bound ([`cone`]), before the
+/// earliest landing that the vertical stopping bound allows. `None` when
+/// the scenario has no cone, or the bound leaves room for a trajectory
+/// (which does not mean that one exists).
+pub fn certify_limits(s: &Scenario) -> Option<Certificate> {
+    let landing = stopping_bound(s)?;
+    // L > v_f held at the grid time before `time_s`.
+    cone_bound(s, landing.time_s - stopping::STEP_S).map(Certificate::Cone)
 }
 
 /// The operational constraint that the initial state breaks most, if any

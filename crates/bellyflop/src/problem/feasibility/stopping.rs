@@ -53,7 +53,7 @@ use crate::input::scenario::Scenario;
 use super::RELATIVE_MARGIN;
 
 /// Integration step of the comparison solutions \[s\].
-const STEP_S: f64 = 5e-3;
+pub(super) const STEP_S: f64 = 5e-3;
 /// Longest time the comparison solutions are integrated \[s\] (2·10⁵ steps);
 /// a scenario that needs longer is not certified.
 const HORIZON_S: f64 = 1000.0;
