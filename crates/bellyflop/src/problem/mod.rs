@@ -4,3 +4,4 @@
 pub mod constraints;
 pub mod dynamics;
 pub mod feasibility;
+pub mod six_dof;
