@@ -68,7 +68,7 @@ def attitude(theta, psi=0.0, phi=0.0):
     return quat_mul(quat_mul(yaw, pitch), roll)
 
 
-def rotation(q, sqrt=math.sqrt):
+def rotation(q):
     n2 = q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2
     s = 2.0 / n2
     w, x, y, z = q
