@@ -9,7 +9,7 @@ The model is written here from its equations, apart from the Rust one
 * state (16): r = (x, y, z), V, a body-to-inertial quaternion q (scalar
   first), body rates w, mass m, the gimbal angles (d1, d2);
 * control (3): thrust T and the gimbal rates (chi1, chi2);
-* m V' = T R d + D - m g z^, D = -C_LD |V| V, d = (-sin d1 cos d2, -sin d2,
+* m V' = T R d + D - m g z^, D = -C_LD |V - W| (V - W), d = (-sin d1 cos d2, -sin d2,
   cos d1 cos d2) in the body frame, R = R(q/|q|);
 * q' = q (x) (0, w) / 2 + kappa (1 - |q|^2) q (kappa = 1/s);
 * J w' = tau - w x J w, J = m diag(k_t, k_t, r^2/2), k_t = (6 r^2 + l^2)/12,
@@ -83,16 +83,18 @@ def cross(a, b):
     return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
-def rhs6(sc, s, u, sin, cos, sqrt):
-    """The 16 derivatives (module docstring), for numpy or CasADi."""
+def rhs6(sc, s, u, sin, cos, sqrt, wind=(0.0, 0.0, 0.0)):
+    """The 16 derivatives (module docstring), for numpy or CasADi; the drag
+    on the air-relative velocity V - wind."""
     v = [s[3], s[4], s[5]]
+    va = [v[i] - wind[i] for i in range(3)]
     q = [s[6], s[7], s[8], s[9]]
     w = [s[10], s[11], s[12]]
     m, d1, d2 = s[13], s[14], s[15]
     T, chi1, chi2 = u[0], u[1], u[2]
     R = rotation(q)
-    speed = sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2 + 1e-12)
-    D = [-sc.C_LD * speed * vi for vi in v]
+    speed = sqrt(va[0] ** 2 + va[1] ** 2 + va[2] ** 2 + 1e-12)
+    D = [-sc.C_LD * speed * vi for vi in va]
     d = [-sin(d1) * cos(d2), -sin(d2), cos(d1) * cos(d2)]
     Fb = [T * di for di in d]
     F = [sum(R[i][j] * Fb[j] for j in range(3)) for i in range(3)]
