@@ -145,15 +145,17 @@ pub fn not_proven(s: &Scenario) -> String {
     }
 }
 
+/// The paper's scenario with one edit, for the certificates' tests.
+#[cfg(test)]
+fn paper_from(edit: impl FnOnce(&mut Scenario)) -> Scenario {
+    let mut s = Scenario::paper();
+    edit(&mut s);
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn paper_from(edit: impl FnOnce(&mut Scenario)) -> Scenario {
-        let mut s = Scenario::paper();
-        edit(&mut s);
-        s
-    }
 
     /// The paper's case needs 238.8 m of its 600 m (computed independently
     /// with the same equations when the bound was written); from 100 m it is

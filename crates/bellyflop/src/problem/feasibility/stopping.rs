@@ -160,13 +160,8 @@ pub fn stopping_bound(s: &Scenario) -> Option<StoppingBound> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::paper_from;
     use super::*;
-
-    fn paper_from(edit: impl FnOnce(&mut Scenario)) -> Scenario {
-        let mut s = Scenario::paper();
-        edit(&mut s);
-        s
-    }
 
     /// The bound only grows with the descent rate and shrinks with the
     /// thrust; with no descent to stop there is no bound.
