@@ -27,6 +27,10 @@ the vertical and a roll phi about the body axis.
 
     python nlp_6dof.py --planar-check --scenario ../../scenarios/paper.toml
     python nlp_6dof.py --states 10 --seed 38 [--nodes 20] [--json]
+
+--states also flies each answer's controls (reintegrate6: T linear between
+the collocation times, the gimbal angles linear over the nodes, DOP853)
+and reports the landing miss and the lowest altitude along the flight.
 """
 
 from __future__ import annotations
@@ -46,6 +50,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from nlp_reference import BOUND_RELAX, LgrMesh, LgrNlp, load_scenario  # noqa: E402
+from scipy.integrate import solve_ivp  # noqa: E402
 
 NX, NU = 16, 3
 KAPPA = 1.0  # the pull of |q| toward 1 [1/s]
@@ -220,11 +225,47 @@ class Nlp6:
         st = self.solver.stats()
         wopt = np.asarray(sol["x"]).ravel()
         X = wopt[:(self.N + 1) * NX].reshape(self.N + 1, NX) * self.x_scale
+        U = wopt[(self.N + 1) * NX:-1].reshape(self.N, NU) * self.u_scale
         tf = wopt[-1] * self.tf_scale
         return dict(converged=bool(st["success"]), status=st["return_status"],
                     iterations=int(st["iter_count"]), tf_s=float(tf), mf_kg=float(X[-1, 13]),
                     q_norm_max_dev=float(np.max(np.abs(np.linalg.norm(X[:, 6:10], axis=1) - 1))),
-                    time_ms=1e3 * statistics.median(walls), X=X)
+                    time_ms=1e3 * statistics.median(walls), X=X, U=U)
+
+
+def reintegrate6(sc, N, start, X, U, tf, rtol=1e-10, atol=1e-10):
+    """The answer's controls flown by DOP853 from the start, as
+    nlp_reference.reintegrate's default flies the planar answer: T linear in
+    time between the collocation times (its last value held to t_f), the
+    gimbal angles (d1, d2) its states, linear over all N + 1 nodes (so the
+    gimbal states are prescribed, not integrated). Returns the final state
+    and the lowest z along the flight (on a 1 ms grid)."""
+    mesh = LgrMesh(N, 1)
+    knots = (mesh.nodes + 1.0) / 2.0 * tf        # t_1 = 0 .. t_N, t_f
+    T_knots = np.append(U[:, 0], U[-1, 0])
+    state = np.array(start, dtype=float)
+    lowest = state[2]
+    for k in range(N):
+        ta, tb = knots[k], knots[k + 1]
+        if tb <= ta:
+            continue
+
+        def f(t, y, ta=ta, tb=tb, k=k):
+            a = (t - ta) / (tb - ta)
+            T = T_knots[k] + a * (T_knots[k + 1] - T_knots[k])
+            d = X[k, 14:16] + a * (X[k + 1, 14:16] - X[k, 14:16])
+            y = list(y[:14]) + list(d)
+            return rhs6(sc, y, [T, 0.0, 0.0], math.sin, math.cos, math.sqrt)[:14]
+
+        grid = np.arange(ta, tb, 1e-3)
+        r = solve_ivp(f, (ta, tb), state[:14], method="DOP853", rtol=rtol, atol=atol,
+                      t_eval=np.append(grid, tb))
+        if not r.success:
+            raise RuntimeError(f"re-integration failed: {r.message}")
+        lowest = min(lowest, float(np.min(r.y[2])))
+        state[:14] = r.y[:, -1]
+        state[14:16] = X[k + 1, 14:16]
+    return state, lowest
 
 
 def start_state(sc, y=0.0, vy=0.0, psi=0.0, phi=0.0, rates=(0.0, 0.0, 0.0)):
@@ -256,7 +297,7 @@ def planar_check(sc, N, repeat):
     p2 = LgrNlp(sc, N, "P2", intervals=1, ground=True)
     sol, st, planar_ms = planar_solve(p2, repeat)
     X, _, tf = p2.unpack_physical(sol["x"])
-    out = dict(six={k: v for k, v in six.items() if k != "X"},
+    out = dict(six={k: v for k, v in six.items() if k not in ("X", "U")},
                planar=dict(converged=bool(st["success"]), tf_s=tf, mf_kg=float(X[-1, 6]), time_ms=planar_ms),
                out_of_plane_max=float(np.max(np.abs(six["X"][:, [1, 4, 7, 9, 10, 12, 15]]))))
     out["tf_rel"] = abs(six["tf_s"] - tf) / tf
@@ -281,17 +322,24 @@ def dispersed(sc_path, count, seed, N, repeat):
         sc = load_scenario(sc_path)
         sc = dataclasses.replace(sc, x0=np.array([x, z, vx, vz, math.radians(th), 0.0, m]),
                                  mf_guess=m - 5000.0)
-        six = Nlp6(sc, N).solve(start_state(sc, y, vy, psi, phi, rates), attitude(0.0, psi, phi), repeat)
+        start = start_state(sc, y, vy, psi, phi, rates)
+        six = Nlp6(sc, N).solve(start, attitude(0.0, psi, phi), repeat)
+        end, lowest = reintegrate6(sc, N, start, six["X"], six["U"], six["tf_s"])
+        pad = np.array([sc.xf[0], 0.0, sc.xf[1]])
         p2 = LgrNlp(sc, N, "P2", intervals=1, ground=True)
         sol, st, planar_ms = planar_solve(p2, repeat)
         row = dict(name=f"box3d{k}", converged=six["converged"], status=six["status"],
                    iterations=six["iterations"], tf_s=six["tf_s"], mf_kg=six["mf_kg"],
                    time_ms=six["time_ms"], planar_converged=bool(st["success"]), planar_time_ms=planar_ms,
-                   q_norm_max_dev=six["q_norm_max_dev"])
+                   q_norm_max_dev=six["q_norm_max_dev"],
+                   flown_miss_m=float(np.linalg.norm(end[0:3] - pad)),
+                   flown_miss_mps=float(np.linalg.norm(end[3:6])),
+                   flown_lowest_z_m=lowest - sc.xf[1])
         rows.append(row)
         print(f"{row['name']:8s} {row['status']:28s} it {row['iterations']:4d} tf {row['tf_s']:7.3f} s "
               f"mf {row['mf_kg']:10.2f} kg  {row['time_ms']:8.1f} ms (planar {planar_ms:7.1f} ms) "
-              f"|q|-1 {row['q_norm_max_dev']:.1e}", file=sys.stderr)
+              f"|q|-1 {row['q_norm_max_dev']:.1e}; flown: miss {row['flown_miss_m']:.2f} m "
+              f"{row['flown_miss_mps']:.2f} m/s, lowest z {row['flown_lowest_z_m']:+.2f} m", file=sys.stderr)
     return rows
 
 
@@ -323,7 +371,9 @@ def main(argv=None):
         summary = dict(states=len(rows), converged=len(conv),
                        time_ms_median=statistics.median(r["time_ms"] for r in conv) if conv else None,
                        planar_time_ms_median=statistics.median(r["planar_time_ms"] for r in rows),
-                       ratio_median=statistics.median(ratio) if ratio else None)
+                       ratio_median=statistics.median(ratio) if ratio else None,
+                       flown_miss_m_median=statistics.median(r["flown_miss_m"] for r in conv) if conv else None,
+                       flown_below_ground=int(sum(r["flown_lowest_z_m"] < -1e-3 for r in conv)))
         print(json.dumps(dict(summary=summary, rows=rows), indent=1) if a.json else summary)
         return 0
     ap.error("give --planar-check or --states K")

@@ -20,7 +20,7 @@ ROOT = HERE.parents[1]
 sys.path.insert(0, str(HERE))
 
 import nlp_6dof as six  # noqa: E402
-from nlp_reference import load_scenario, p1_rhs  # noqa: E402
+from nlp_reference import LgrNlp, load_scenario, p1_rhs, reintegrate  # noqa: E402
 
 PAPER = load_scenario(str(ROOT / "scenarios" / "paper.toml"))
 
@@ -67,6 +67,23 @@ def test_the_paper_case_in_3d_is_the_planar_answer():
     assert out["six"]["converged"] and out["planar"]["converged"]
     assert out["tf_rel"] < 1e-6 and out["mf_rel"] < 1e-6, out
     assert out["out_of_plane_max"] < 1e-9, out
+
+
+def test_the_paper_case_flown_in_3d_lands_where_the_planar_answer_does():
+    """reintegrate6 flies the 3-D answer as nlp_reference.reintegrate flies
+    the planar one; on the paper's case both answers land 2.1 m off, at the
+    same place to 1e-2 m and 1e-2 m/s, nothing out of the plane."""
+    start = six.start_state(PAPER)
+    r = six.Nlp6(PAPER, 20).solve(start, six.attitude(0.0))
+    end, _ = six.reintegrate6(PAPER, 20, start, r["X"], r["U"], r["tf_s"])
+    p2 = LgrNlp(PAPER, 20, "P2", ground=True)
+    sol, _, _ = p2.solve(p2.initial_guess())
+    X, U, tf = p2.unpack_physical(sol["x"])
+    flat = reintegrate(PAPER, "P2", (p2.tau + 1) / 2 * tf, U, X, tf)
+    assert abs(end[1]) < 1e-9 and abs(end[4]) < 1e-9
+    assert math.hypot(end[0] - flat[0], end[2] - flat[1]) < 1e-2, (end, flat)
+    assert math.hypot(end[3] - flat[2], end[5] - flat[3]) < 1e-2, (end, flat)
+    assert math.hypot(flat[0] - PAPER.xf[0], flat[1] - PAPER.xf[1]) > 1.0
 
 
 if __name__ == "__main__":
