@@ -43,10 +43,13 @@ pub mod evidence;
 /// says so), both times counted. On issue 15's 150 states this rescues 4
 /// of the tilt limit's, 1 of the final descent's and 4 of all four's
 /// (BENCHMARKS.md, "Issue 37"). A constrained state left `not_converged`
-/// carries where its limits cut ([`evidence`]), its solves counted too,
-/// unless [`feasibility::certify_limits`] proves that no trajectory holds
-/// them (the approach cone's reachability bound, tens of milliseconds,
-/// paid only here): then it is `infeasible`, the certificate its message.
+/// carries where its limits cut ([`evidence`]), its solves counted too.
+/// A first answer (of the method the settings name) that found no
+/// trajectory with limits is first tried against
+/// [`feasibility::certify_limits`] (the approach cone's reachability
+/// bound, tens of milliseconds, paid only then): when it proves that no
+/// trajectory holds them, the answer is `infeasible` at once, the
+/// certificate its message, without the second tries.
 ///
 /// With `solver.refinement.tolerance` > 0 the mesh is refined until every
 /// interval's relative error is within it ([`refine::solve`]), and step 3
@@ -63,9 +66,6 @@ pub fn solve(
     observer: &mut dyn Observer,
 ) -> Solution {
     let mut sol = with_fallback(scenario, settings, observer);
-    if evidence::wanted(scenario, &sol) && certified_late(scenario, &mut sol) {
-        return sol;
-    }
     if evidence::wanted(scenario, &sol) {
         let (found, ms) = evidence::gather(scenario, settings);
         sol.message = format!(
@@ -89,7 +89,10 @@ fn certified_late(scenario: &Scenario, sol: &mut Solution) -> bool {
         return false;
     };
     sol.status = Status::Infeasible;
-    sol.message = format!("{certificate}; the methods found no trajectory either");
+    sol.message = format!(
+        "{certificate}; the {} method found no trajectory either",
+        sol.method.as_str()
+    );
     sol.certificate = Some(certificate);
     sol.solve_time_ms += clock.elapsed().as_secs_f64() * 1e3;
     true
@@ -163,13 +166,19 @@ fn finer_mesh(scenario: &Scenario) -> Option<Scenario> {
 }
 
 /// [`solve_with`], and SCvx after a direct answer that is not `solved`
-/// when the scenario has limits ([`scvx_may_rescue`]).
+/// when the scenario has limits ([`scvx_may_rescue`]), unless the first
+/// answer found no trajectory and [`certified_late`] proves that none
+/// exists.
 fn with_scvx(
     scenario: &Scenario,
     settings: &SolverSettings,
     observer: &mut dyn Observer,
 ) -> Solution {
-    let sol = solve_with(scenario, settings, observer);
+    let mut sol = solve_with(scenario, settings, observer);
+    // A proof ends the search before the second tries, which take seconds.
+    if evidence::wanted(scenario, &sol) && certified_late(scenario, &mut sol) {
+        return sol;
+    }
     if sol.status == Status::Solved || !scvx_may_rescue(scenario, settings) {
         return sol;
     }

@@ -9,10 +9,10 @@
 //! - [`certify`], before any solve: the initial state against the limits,
 //!   and the vertical stopping bound ([`stopping`]) against the altitude
 //!   and the propellant;
-//! - [`certify_limits`], after the methods found no trajectory that holds
-//!   the operational limits: the reachability bound on the approach cone
-//!   ([`cone`]), which costs tens of milliseconds and so is not paid by the
-//!   solves that succeed.
+//! - [`certify_limits`], after the first method found no trajectory that
+//!   holds the operational limits, before the second tries: the
+//!   reachability bound on the approach cone ([`cone`]), which costs tens
+//!   of milliseconds and so is not paid by the solves that succeed.
 
 use std::fmt;
 
