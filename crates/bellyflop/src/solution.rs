@@ -314,16 +314,16 @@ pub const GROUND_TOLERANCE_M: f64 = 1e-3;
 
 /// The names of [`Solution::state_columns`], in the same order (the JSON's
 /// keys of those arrays).
-pub const STATE_COLUMN_NAMES: [&str; 8] = [
-    "x_m",
-    "z_m",
-    "vx_mps",
-    "vz_mps",
-    "theta_rad",
-    "pitch_rate_radps",
-    "mass_kg",
-    "delta_rad",
-];
+pub const STATE_COLUMN_NAMES: [&str; 8] = {
+    let fields = crate::problem::model::PLANAR_STATE;
+    let mut names = [""; 8];
+    let mut i = 0;
+    while i < 8 {
+        names[i] = fields[i].name;
+        i += 1;
+    }
+    names
+};
 
 /// Checks of the returned trajectory against the nonlinear problem. A
 /// polished answer's are its own ([`crate::polish::publish`]): no

@@ -4,4 +4,5 @@
 pub mod constraints;
 pub mod dynamics;
 pub mod feasibility;
+pub mod model;
 pub mod six_dof;
