@@ -3,6 +3,7 @@
 //! the controls as they can be flown between the collocation points.
 
 pub mod control_profile;
+pub mod derivatives;
 pub mod interpolation;
 pub mod mesh;
 pub mod plan;

@@ -20,14 +20,14 @@
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
-use num_dual::Dual2SVec64;
-
+use crate::collocation::derivatives;
 use crate::collocation::mesh::Mesh;
 use crate::collocation::scaling::Scaling;
 use crate::input::scenario::Scenario;
 use crate::input::settings::{Formulation, SolverSettings};
 use crate::problem::constraints::Limit;
-use crate::problem::dynamics::{self, Model};
+use crate::problem::dynamics::Model;
+use crate::problem::model::Dynamics;
 
 /// States of P2 at a node: x, z, Vx, Vz, θ, w, m, δ.
 pub const NS: usize = 8;
@@ -49,15 +49,9 @@ pub mod slot {
     pub const BELOW: usize = 11;
 }
 
-/// The slots that enter f nonlinearly, in the order of the dual directions.
-const ACTIVE: [usize; 6] = [
-    slot::VX,
-    slot::VZ,
-    slot::THETA,
-    slot::M,
-    slot::DELTA,
-    slot::T,
-];
+/// Number of the model's inputs that enter f nonlinearly (Vx, Vz, θ, m, δ,
+/// T: [`Dynamics::NONLINEAR`]), the directions of the dual numbers.
+const NA: usize = 6;
 
 /// Bounds on t_f \[s\], as in the IPOPT reference.
 pub const TF_BOUNDS_S: (f64, f64) = (1.0, 100.0);
@@ -71,16 +65,9 @@ pub struct Duals {
     pub zu: Vec<f64>,
 }
 
-/// Derivatives of the dynamics at one collocation point, in scaled units.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PointDerivatives {
-    /// F_c = f_c/scale_c (scaled state rates per unit time).
-    pub f: [f64; NS],
-    /// ∂F_c/∂ŵ_s over the local slots.
-    pub jac: [[f64; NL]; NS],
-    /// Σ_c λ_c ∇²F_c over the local slots (symmetric).
-    pub hess: [[f64; NL]; NL],
-}
+/// Derivatives of the dynamics at one collocation point, in scaled units
+/// (the thrust slacks' columns filled by [`Nlp::point_derivatives`]).
+pub type PointDerivatives = derivatives::PointDerivatives<NS, NL>;
 
 /// P2 on a mesh: scaling, bounds, defects and their derivatives.
 #[derive(Debug, Clone)]
@@ -109,6 +96,9 @@ pub struct Nlp {
     /// The operational rows held at the free nodes (the tilt limit and the
     /// final descent, in the direct method's `rows` module).
     pub limits: Vec<crate::problem::constraints::Row>,
+    /// The constant Jacobian entries of the inputs that enter f linearly
+    /// (θ̇ = w, δ̇ = χ): [`derivatives::linear_columns`].
+    linear: Vec<(usize, usize, f64)>,
 }
 
 /// The soft constraints of [`crate::input::settings::SolverSettings`], as exact
@@ -176,6 +166,7 @@ impl Nlp {
             soft: SoftTerms::default(),
             max_pitch_rate_radps: None,
             limits: Vec::new(),
+            linear: Vec::with_capacity(NL),
         };
         nlp.refresh(s, sv);
         nlp
@@ -201,6 +192,7 @@ impl Nlp {
         scale[slot::ABOVE] = model.max_thrust_n;
         scale[slot::BELOW] = model.max_thrust_n;
         scale[slot::CHI] = model.max_gimbal_rate_radps;
+        derivatives::linear_columns(&model, &offset, &mut self.linear);
         self.model = model;
         self.offset = offset;
         self.scale = scale;
@@ -450,8 +442,8 @@ impl Nlp {
     /// Scaled rates F = f/scale at collocation point `i`.
     pub fn rates(&self, w: &[f64], i: usize) -> [f64; NS] {
         let p = self.physical_node(w, i);
-        let st: [f64; NS] = std::array::from_fn(|s| p[s]);
-        let f = dynamics::rhs_augmented(&self.model, &st, p[slot::T], p[slot::CHI]);
+        let mut f = [0.0; NS];
+        self.model.rhs(&p[..NS], &p[NS..NS + 2], &mut f);
         std::array::from_fn(|c| f[c] / self.scale[c])
     }
 
@@ -475,42 +467,14 @@ impl Nlp {
 
     /// F, ∂F/∂ŵ and Σ_c λ_c ∇²F_c at collocation point `i` (λ: 8 weights).
     pub fn point_derivatives(&self, w: &[f64], i: usize, lambda: &[f64]) -> PointDerivatives {
-        type D2 = Dual2SVec64<6>;
         let p = self.physical_node(w, i);
-        let active = |s: usize| ACTIVE.iter().position(|&a| a == s);
-        let var = |s: usize| match active(s) {
-            Some(a) => D2::from_re(p[s]).derivative(a),
-            None => D2::from_re(p[s]),
-        };
-        let st: [D2; NS] = std::array::from_fn(var);
-        let f = dynamics::rhs_augmented(&self.model, &st, var(slot::T), var(slot::CHI));
-        let mut out = PointDerivatives {
-            f: [0.0; NS],
-            jac: [[0.0; NL]; NS],
-            hess: [[0.0; NL]; NL],
-        };
-        for (c, fc) in f.iter().enumerate() {
-            let inv = 1.0 / self.scale[c];
-            out.f[c] = fc.re * inv;
-            if let Some(g) = &fc.v1.0 {
-                for (a, &s) in ACTIVE.iter().enumerate() {
-                    out.jac[c][s] = g[a] * self.scale[s] * inv;
-                }
-            }
-            if let Some(h) = &fc.v2.0 {
-                let wc = lambda[c] * inv;
-                for (a, &s) in ACTIVE.iter().enumerate() {
-                    for (b, &r) in ACTIVE.iter().enumerate().take(a + 1) {
-                        // Symmetric to the last bit: the KKT blocks rely on it.
-                        let v = wc * 0.5 * (h[(a, b)] + h[(b, a)]) * self.scale[s] * self.scale[r];
-                        out.hess[s][r] += v;
-                        if r != s {
-                            out.hess[r][s] += v;
-                        }
-                    }
-                }
-            }
-        }
+        let mut out = derivatives::point_derivatives::<Model, NS, NL, NA>(
+            &self.model,
+            &p,
+            &self.scale,
+            lambda,
+            &self.linear,
+        );
         // The slacks enter as the thrust does, with signs e = (+1, −1): their
         // columns are e·(T's column), and ∇² rows and columns likewise.
         for (s, e) in [(slot::ABOVE, 1.0), (slot::BELOW, -1.0)] {
@@ -530,9 +494,6 @@ impl Nlp {
                 out.hess[q][s] = v;
             }
         }
-        // The linear rates θ̇ = w and δ̇ = χ.
-        out.jac[slot::THETA][slot::W] = self.scale[slot::W] / self.scale[slot::THETA];
-        out.jac[slot::DELTA][slot::CHI] = self.scale[slot::CHI] / self.scale[slot::DELTA];
         out
     }
 

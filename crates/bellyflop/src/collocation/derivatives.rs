@@ -1,0 +1,255 @@
+//! The dynamics' derivatives at one collocation point, in a transcription's
+//! scaled units, for any model behind the seam ([`Dynamics`]): the rates
+//! F = f/scale, their Jacobian ∂F/∂ŵ over the point's local slots, and the
+//! weighted Hessian Σ_c λ_c ∇²F_c that a Newton method's Lagrangian needs.
+//!
+//! The local slots are (x, u) in the model's layout, then any slots of the
+//! transcription's own (the direct method's thrust slacks), which this
+//! leaves at zero. Only the model's nonlinear inputs ([`Dynamics::NONLINEAR`],
+//! NA of them) are carried by second-order dual numbers over NA directions;
+//! the columns of the linear ones (ẋ = V, θ̇ = w, δ̇ = χ) are constant and
+//! found once by [`linear_columns`].
+//!
+//! With value = offset + scale·ŵ per slot, ∂F_c/∂ŵ_s = (∂f_c/∂v_s)·scale_s
+//! / scale_c and ∂²F_c/∂ŵ_s∂ŵ_r = (∂²f_c/∂v_s∂v_r)·scale_s·scale_r/scale_c.
+
+#![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
+
+use num_dual::{Dual2SVec64, Dual64};
+
+use crate::problem::model::Dynamics;
+
+/// F, ∂F/∂ŵ and Σ_c λ_c ∇²F_c at one point, scaled (NS states, NL local
+/// slots).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointDerivatives<const NS: usize, const NL: usize> {
+    /// F_c = f_c/scale_c (scaled state rates per unit time).
+    pub f: [f64; NS],
+    /// ∂F_c/∂ŵ_s over the local slots.
+    pub jac: [[f64; NL]; NS],
+    /// Σ_c λ_c ∇²F_c over the local slots (symmetric to the last bit).
+    pub hess: [[f64; NL]; NL],
+}
+
+impl<const NS: usize, const NL: usize> Default for PointDerivatives<NS, NL> {
+    fn default() -> Self {
+        PointDerivatives {
+            f: [0.0; NS],
+            jac: [[0.0; NL]; NS],
+            hess: [[0.0; NL]; NL],
+        }
+    }
+}
+
+/// The nonzero entries (row c, input s, ∂f_c/∂v_s) of f's Jacobian in the
+/// inputs outside [`Dynamics::NONLINEAR`], where f is affine, by one dual
+/// pass per such input at `p` (any point: they are constant), into
+/// `entries` (cleared; it allocates only to grow, so that a re-plan's
+/// refresh allocates nothing).
+pub fn linear_columns<M: Dynamics, const NL: usize>(
+    model: &M,
+    p: &[f64; NL],
+    entries: &mut Vec<(usize, usize, f64)>,
+) {
+    let (nx, nu) = (M::NX, M::NU);
+    let mut out = [Dual64::from_re(0.0); NL];
+    entries.clear();
+    for s in (0..nx + nu).filter(|s| !M::NONLINEAR.contains(s)) {
+        let v: [Dual64; NL] =
+            std::array::from_fn(|i| Dual64::new(p[i], if i == s { 1.0 } else { 0.0 }));
+        model.rhs(&v[..nx], &v[nx..nx + nu], &mut out[..nx]);
+        entries.extend(
+            out[..nx]
+                .iter()
+                .enumerate()
+                .filter(|(_, o)| o.eps != 0.0)
+                .map(|(c, o)| (c, s, o.eps)),
+        );
+    }
+}
+
+/// F, ∂F/∂ŵ and Σ_c λ_c ∇²F_c at the physical point `p` (its first NX + NU
+/// slots are (x, u)), for the row weights `lambda` (NS of them, in the
+/// scaled rows' units) and the slots' scales; `linear` from
+/// [`linear_columns`]. NA is the number of the model's nonlinear inputs.
+pub fn point_derivatives<M: Dynamics, const NS: usize, const NL: usize, const NA: usize>(
+    model: &M,
+    p: &[f64; NL],
+    scale: &[f64; NL],
+    lambda: &[f64],
+    linear: &[(usize, usize, f64)],
+) -> PointDerivatives<NS, NL> {
+    const {
+        assert!(NS == M::NX && NA == M::NONLINEAR.len() && NL >= M::NX + M::NU);
+    }
+    let active = M::NONLINEAR;
+    let v: [Dual2SVec64<NA>; NL] =
+        std::array::from_fn(|s| match active.iter().position(|&a| a == s) {
+            Some(a) => Dual2SVec64::from_re(p[s]).derivative(a),
+            None => Dual2SVec64::from_re(p[s]),
+        });
+    let mut f = [Dual2SVec64::<NA>::from_re(0.0); NS];
+    model.rhs(&v[..NS], &v[NS..NS + M::NU], &mut f);
+    let mut out = PointDerivatives::<NS, NL>::default();
+    for (c, fc) in f.iter().enumerate() {
+        let inv = 1.0 / scale[c];
+        out.f[c] = fc.re * inv;
+        if let Some(g) = &fc.v1.0 {
+            for (a, &s) in active.iter().enumerate() {
+                out.jac[c][s] = g[a] * scale[s] * inv;
+            }
+        }
+        if let Some(h) = &fc.v2.0 {
+            let wc = lambda[c] * inv;
+            for (a, &s) in active.iter().enumerate() {
+                for (b, &r) in active.iter().enumerate().take(a + 1) {
+                    // Symmetric to the last bit: the KKT blocks rely on it.
+                    let v = wc * 0.5 * (h[(a, b)] + h[(b, a)]) * scale[s] * scale[r];
+                    out.hess[s][r] += v;
+                    if r != s {
+                        out.hess[r][s] += v;
+                    }
+                }
+            }
+        }
+    }
+    for &(c, s, d) in linear {
+        out.jac[c][s] = d * scale[s] / scale[c];
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::scenario::Scenario;
+    use crate::problem::dynamics::{self, Model};
+    use crate::problem::six_dof::{self, sx, SixDof};
+
+    const NX6: usize = six_dof::NX;
+    const NL6: usize = six_dof::NX + six_dof::NU;
+
+    fn six_dof() -> SixDof {
+        let s = Scenario::paper();
+        let mut m = SixDof::new(&s.vehicle, &s.environment);
+        m.wind_mps = [4.0, -3.0, 0.0];
+        m
+    }
+
+    fn point6() -> [f64; NL6] {
+        let mut p = [0.0; NL6];
+        let y = [-40.0, 300.0, 15.0, -70.0, 0.9, -0.25, 105_000.0, 0.12];
+        p[..NX6].copy_from_slice(&six_dof::planar_state(&y));
+        p[sx::Y] = 25.0;
+        p[sx::VY] = -6.0;
+        p[sx::Q + 3] = 0.08;
+        p[sx::Q + 1] = -0.05;
+        p[sx::W] = 0.03;
+        p[sx::W + 2] = 0.02;
+        p[sx::DELTA + 1] = -0.07;
+        p[NX6] = 5.5e6;
+        p[NX6 + 1] = 0.05;
+        p[NX6 + 2] = -0.03;
+        p
+    }
+
+    fn scale6() -> [f64; NL6] {
+        let mut s = [1.0; NL6];
+        for (i, v) in [
+            (sx::X, 100.0),
+            (sx::Y, 100.0),
+            (sx::Z, 500.0),
+            (sx::VX, 50.0),
+            (sx::VY, 50.0),
+            (sx::VZ, 90.0),
+            (sx::M, 1.0e5),
+            (sx::W, 0.5),
+            (NX6, 6.0e6),
+        ] {
+            s[i] = v;
+        }
+        s
+    }
+
+    /// F(ŵ) of the 6-DoF model at the scaled point ŵ = p/scale.
+    fn scaled_rates(m: &SixDof, w: &[f64; NL6], scale: &[f64; NL6]) -> [f64; NX6] {
+        let p: [f64; NL6] = std::array::from_fn(|s| w[s] * scale[s]);
+        let mut f = [0.0; NX6];
+        m.rhs(&p[..NX6], &p[NX6..], &mut f);
+        std::array::from_fn(|c| f[c] / scale[c])
+    }
+
+    /// The 6-DoF model's scaled Jacobian, and its weighted Hessian, against
+    /// central differences of F and of λᵀ∂F: the generic path is exact for a
+    /// model that it was not first written for.
+    #[test]
+    fn six_dof_point_derivatives_match_differences() {
+        let m = six_dof();
+        let (p, scale) = (point6(), scale6());
+        let lambda: [f64; NX6] =
+            std::array::from_fn(|c| 0.3 + 0.1 * c as f64 - 0.07 * (c % 3) as f64);
+        let mut linear = Vec::new();
+        linear_columns(&m, &p, &mut linear);
+        let d = point_derivatives::<SixDof, NX6, NL6, 14>(&m, &p, &scale, &lambda, &linear);
+        let w: [f64; NL6] = std::array::from_fn(|s| p[s] / scale[s]);
+        let f0 = scaled_rates(&m, &w, &scale);
+        for c in 0..NX6 {
+            assert!((d.f[c] - f0[c]).abs() <= 1e-13 * (1.0 + f0[c].abs()));
+        }
+        let h = 1e-6;
+        let grad = |w: &[f64; NL6]| -> [f64; NL6] {
+            // λᵀ∂F/∂ŵ by the generic path's Jacobian at w.
+            let p: [f64; NL6] = std::array::from_fn(|s| w[s] * scale[s]);
+            let d = point_derivatives::<SixDof, NX6, NL6, 14>(&m, &p, &scale, &lambda, &linear);
+            std::array::from_fn(|s| (0..NX6).map(|c| lambda[c] * d.jac[c][s]).sum())
+        };
+        for s in 0..NL6 {
+            let (mut up, mut dn) = (w, w);
+            up[s] += h;
+            dn[s] -= h;
+            let (fu, fd) = (scaled_rates(&m, &up, &scale), scaled_rates(&m, &dn, &scale));
+            for c in 0..NX6 {
+                let fdv = (fu[c] - fd[c]) / (2.0 * h);
+                let tol = 1e-6 * (1.0 + d.jac[c][s].abs());
+                assert!(
+                    (fdv - d.jac[c][s]).abs() < tol,
+                    "∂F{c}/∂ŵ{s}: {} against {fdv}",
+                    d.jac[c][s]
+                );
+            }
+            let (gu, gd) = (grad(&up), grad(&dn));
+            for r in 0..NL6 {
+                let fdv = (gu[r] - gd[r]) / (2.0 * h);
+                let tol = 1e-5 * (1.0 + d.hess[s][r].abs());
+                assert!(
+                    (fdv - d.hess[s][r]).abs() < tol,
+                    "H[{s}][{r}]: {} against {fdv}",
+                    d.hess[s][r]
+                );
+                assert_eq!(d.hess[s][r], d.hess[r][s]);
+            }
+        }
+    }
+
+    /// The linear columns of both models are the ones their equations say:
+    /// ẋ = V and θ̇ = w (ω's quaternion map is bilinear, so nonlinear in
+    /// 3-D), δ̇ = χ.
+    #[test]
+    fn linear_columns_are_the_kinematic_ones() {
+        let s = Scenario::paper();
+        let planar = Model::new(&s.vehicle, &s.environment);
+        let p = [0.0, 100.0, 1.0, -10.0, 0.3, 0.1, 1e5, 0.05, 5e6, 0.01];
+        let mut l = Vec::new();
+        linear_columns(&planar, &p, &mut l);
+        l.sort_by_key(|&(c, s, _)| (c, s));
+        use dynamics::ix;
+        assert_eq!(l, vec![(ix::THETA, ix::W, 1.0), (ix::DELTA, 9, 1.0)]);
+        let mut l6 = Vec::new();
+        linear_columns(&six_dof(), &point6(), &mut l6);
+        l6.sort_by_key(|&(c, s, _)| (c, s));
+        assert_eq!(
+            l6,
+            vec![(sx::DELTA, NX6 + 1, 1.0), (sx::DELTA + 1, NX6 + 2, 1.0)]
+        );
+    }
+}
