@@ -244,9 +244,9 @@ const SIX_DOF_CONTROL: [Field; six_dof::NU] = [
     field("gimbal_rate2_radps", "rad/s", "χ2 = δ̇2"),
 ];
 
-/// The 6-DoF model ([`six_dof`]): the gimbal held in a cone of δ_max
-/// (δ1² + δ2² ≤ δ_max²) and its rate in a disc of χ_max, each row over its
-/// limit squared; the landing at the planar target (y = V_y = 0), at rest,
+/// The 6-DoF model ([`six_dof`]): the nozzle held in a cone of δ_max about
+/// the body axis (its angle from it, arccos(cos δ1·cos δ2), at most δ_max)
+/// and the gimbal rate in a disc of χ_max, each row scaled to order one; the landing at the planar target (y = V_y = 0), at rest,
 /// with the body axis vertical and up (R₁₃ = R₂₃ = 0, R₃₃ > 0), the pitch
 /// and yaw rates zero and the roll free.
 impl Dynamics for SixDof {
@@ -301,12 +301,16 @@ impl Dynamics for SixDof {
         }
     }
 
-    /// g₀ = (δ1² + δ2²)/δ_max² − 1 and g₁ = (χ1² + χ2²)/χ_max² − 1.
+    /// g₀ = (cos δ_max − cos δ1·cos δ2)/(1 − cos δ_max) (the nozzle's
+    /// angle from the body axis, the third component of
+    /// [`six_dof::thrust_direction`]) and g₁ = (χ1² + χ2²)/χ_max² − 1. In
+    /// the plane (δ2 = 0) g₀ ≤ 0 is |δ1| ≤ δ_max.
     fn path_rows<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], u: &[D], g: &mut [D]) {
         let p = &self.planar;
         let (d1, d2) = (x[sx::DELTA], x[sx::DELTA + 1]);
         let (c1, c2) = (u[su::CHI], u[su::CHI + 1]);
-        g[0] = (d1 * d1 + d2 * d2) / (p.max_gimbal_rad * p.max_gimbal_rad) - 1.0;
+        let cos_max = p.max_gimbal_rad.cos();
+        g[0] = (-(d1.cos() * d2.cos()) + cos_max) / (1.0 - cos_max);
         g[1] = (c1 * c1 + c2 * c2) / (p.max_gimbal_rate_radps * p.max_gimbal_rate_radps) - 1.0;
     }
 
@@ -541,17 +545,26 @@ mod tests {
         let c = m.planar.max_gimbal_rate_radps;
         let mut x = vec![0.0; six_dof::NX];
         let u = [6.0e6, c * 0.6, c * 0.8];
-        let a: f64 = 0.3;
-        x[sx::DELTA] = d * a.cos();
-        x[sx::DELTA + 1] = d * a.sin();
         let mut g = [1.0; 2];
+        // On the cone: the thrust direction δ_max from the body axis.
+        for d1 in [0.0, 0.5 * d, -0.9 * d, d] {
+            let d2 = (d.cos() / f64::cos(d1)).clamp(-1.0, 1.0).acos();
+            x[sx::DELTA] = d1;
+            x[sx::DELTA + 1] = d2;
+            let dir = six_dof::thrust_direction(d1, d2);
+            assert!((dir[2].acos() - d).abs() < 1e-9);
+            m.path_rows(&x, &u, &mut g);
+            assert!(g[0].abs() < 1e-9 && g[1].abs() < 1e-12, "{g:?}");
+        }
+        // Inside it and outside it (the boxes' corner).
+        x[sx::DELTA] = 0.5 * d;
+        x[sx::DELTA + 1] = 0.5 * d;
         m.path_rows(&x, &u, &mut g);
-        assert!(g[0].abs() < 1e-12 && g[1].abs() < 1e-12, "{g:?}");
-        // The boxes' corner is outside the cone.
-        x[sx::DELTA + 1] = d;
+        assert!(g[0] < 0.0);
         x[sx::DELTA] = d;
+        x[sx::DELTA + 1] = d;
         m.path_rows(&x, &u, &mut g);
-        assert!((g[0] - 1.0).abs() < 1e-12);
+        assert!(g[0] > 0.0);
     }
 
     #[test]
