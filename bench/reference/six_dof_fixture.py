@@ -1,9 +1,13 @@
 #!/usr/bin/env python3
-"""Writes crates/bellyflop/tests/data/six_dof_rhs.json: the 6-DoF right-hand
-side of nlp_6dof.py (written apart from the Rust model) at seeded states
-out of the plane, for the Rust test that checks its own model against it
-(crates/bellyflop/tests/six_dof.rs). The vehicle is the paper's; a wind
-along x and across.
+"""Writes the fixtures of the Rust 6-DoF tests (crates/bellyflop/tests/six_dof.rs)
+from nlp_6dof.py, which is written apart from the Rust model:
+
+* tests/data/six_dof_rhs.json: the 6-DoF right-hand side at seeded states
+  out of the plane (the paper's vehicle; a wind along x and across);
+* tests/data/six_dof_answers.json: IPOPT's answers of the 6-DoF
+  transcription at N = 20 for the first three seeded 3-D states of
+  `nlp_6dof.py --states` (seed 38), which the Rust transcription
+  (collocation::residuals) must find satisfied.
 
     bench/reference/.venv/bin/python bench/reference/six_dof_fixture.py
 """
@@ -21,7 +25,33 @@ sys.path.insert(0, str(HERE))
 import nlp_6dof as six  # noqa: E402
 from nlp_reference import load_scenario  # noqa: E402
 
-OUT = ROOT / "crates" / "bellyflop" / "tests" / "data" / "six_dof_rhs.json"
+DATA = ROOT / "crates" / "bellyflop" / "tests" / "data"
+OUT = DATA / "six_dof_rhs.json"
+ANSWERS = DATA / "six_dof_answers.json"
+
+
+def answers(count=3, seed=38, N=20):
+    """IPOPT's answers for the first `count` states of nlp_6dof.dispersed."""
+    path = str(ROOT / "scenarios" / "paper.toml")
+    rng = random.Random(seed)
+    out = []
+    for k in range(count):
+        # The same draws, in the same order, as nlp_6dof.dispersed.
+        x, z, vx, vz, th, m = (rng.uniform(lo, hi) for lo, hi in six.BOX)
+        y, vy = rng.uniform(*six.OUT["y"]), rng.uniform(*six.OUT["vy"])
+        psi, phi = (math.radians(rng.uniform(*six.OUT[f])) for f in ("psi_deg", "phi_deg"))
+        rates = tuple(math.radians(rng.uniform(*six.OUT["rate_degps"])) for _ in range(3))
+        sc = dataclasses.replace(load_scenario(path),
+                                 x0=six.np.array([x, z, vx, vz, math.radians(th), 0.0, m]),
+                                 mf_guess=m - 5000.0)
+        start = six.start_state(sc, y, vy, psi, phi, rates)
+        sol = six.Nlp6(sc, N).solve(start, six.attitude(0.0, psi, phi))
+        out.append(dict(name=f"box3d{k}", converged=sol["converged"], tf_s=sol["tf_s"],
+                        mf_kg=sol["mf_kg"], start=[float(v) for v in start],
+                        states=[float(v) for v in sol["X"].ravel()],
+                        controls=[float(v) for v in sol["U"].ravel()]))
+        print(f"box3d{k}: {sol['status']}, tf {sol['tf_s']:.4f} s, mf {sol['mf_kg']:.3f} kg")
+    return out
 
 
 def main():
@@ -45,6 +75,11 @@ def main():
         note="nlp_6dof.rhs6 at seeded states; written by bench/reference/six_dof_fixture.py",
         kappa_per_s=six.KAPPA, cases=cases), indent=1) + "\n")
     print(f"{len(cases)} cases -> {OUT}")
+    ANSWERS.write_text(json.dumps(dict(
+        note="nlp_6dof.Nlp6 answers at N = 20 (global LGR mesh, ground at every node, tol 1e-9, "
+             "bound_relax_factor 1e-8); written by bench/reference/six_dof_fixture.py",
+        nodes=20, answers=answers()), indent=1) + "\n")
+    print(f"answers -> {ANSWERS}")
 
 
 if __name__ == "__main__":

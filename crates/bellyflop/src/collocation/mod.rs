@@ -8,5 +8,6 @@ pub mod interpolation;
 pub mod mesh;
 pub mod plan;
 pub mod radau;
+pub mod residuals;
 pub mod scaling;
 pub mod trajectory;
