@@ -12,7 +12,7 @@
 //!   controls at the points, and the ground z ≥ z_f;
 //! - the path rows g(x, u) ≤ 0 at the points (x_i, u_i), and at the last
 //!   node with the last point's control (as it is held there when flown);
-//! - at the last node, the landing's fixed slots and its rows.
+//! - at the last node, the landing's fixed slots.
 
 use crate::collocation::mesh::Mesh;
 use crate::input::scenario::TerminalState;
@@ -42,9 +42,6 @@ pub struct Residuals {
     pub path: Vec<f64>,
     /// |x_N,c − fixed_c| per state (0 where the landing leaves it free).
     pub terminal_fixed: Vec<f64>,
-    /// |e_r| of the terminal equalities, then max(0, h_r) of the
-    /// inequalities.
-    pub terminal_rows: Vec<f64>,
 }
 
 /// Why an answer cannot be evaluated.
@@ -90,7 +87,6 @@ pub fn residuals<M: Dynamics>(
         control_box: vec![0.0; nu],
         path: vec![0.0; M::PATH_ROWS],
         terminal_fixed: vec![0.0; nx],
-        terminal_rows: vec![0.0; M::TERMINAL_EQUALITIES + M::TERMINAL_INEQUALITIES],
     };
     let mut f = vec![0.0; nx];
     let mut g = vec![0.0; M::PATH_ROWS];
@@ -134,15 +130,6 @@ pub fn residuals<M: Dynamics>(
         if let Some(v) = model.terminal_fixed(target, c) {
             *miss = (e - v).abs();
         }
-    }
-    let mut rows = vec![0.0; r.terminal_rows.len()];
-    model.terminal_rows(end, &mut rows);
-    for (q, v) in rows.iter().enumerate() {
-        r.terminal_rows[q] = if q < M::TERMINAL_EQUALITIES {
-            v.abs()
-        } else {
-            v.max(0.0)
-        };
     }
     Ok(r)
 }

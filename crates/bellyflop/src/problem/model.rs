@@ -13,8 +13,9 @@
 //! - box bounds on each state and control, and nonlinear path rows
 //!   g(x, u) ≤ 0 beyond the boxes (the gimbal's cone and the rate's disc in
 //!   3-D; none in the plane, where |δ| ≤ δ_max and |χ| ≤ χ_max are boxes);
-//! - the landing: the slots fixed at t_f, and the terminal rows that a
-//!   fixed value cannot say (in 3-D, the body axis vertical and up);
+//! - the landing: the slots fixed at t_f (in 3-D, the body axis vertical
+//!   and up is q1 = q2 = 0: [`SixDof`]'s `terminal_fixed`, so no terminal
+//!   rows are needed);
 //! - a field table, one entry per state and control (name, unit, meaning),
 //!   from which the outputs are to take their names;
 //! - the slots that every method treats specially: the altitude (the
@@ -75,10 +76,6 @@ pub trait Dynamics {
     const THRUST: usize;
     /// Number of path rows g(x, u) ≤ 0 beyond the boxes.
     const PATH_ROWS: usize;
-    /// Number of terminal equalities e(x_f) = 0 beyond the fixed slots.
-    const TERMINAL_EQUALITIES: usize;
-    /// Number of terminal inequalities h(x_f) ≤ 0.
-    const TERMINAL_INEQUALITIES: usize;
 
     /// ẋ = f(x, u) into `dx` (x: NX, u: NU, dx: NX).
     fn rhs<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], u: &[D], dx: &mut [D]);
@@ -94,10 +91,6 @@ pub trait Dynamics {
 
     /// The value that the landing fixes state `i` to, if it does.
     fn terminal_fixed(&self, target: &TerminalState, i: usize) -> Option<f64>;
-
-    /// The terminal rows at x_f: the equalities e = 0 first
-    /// ([`Self::TERMINAL_EQUALITIES`]), then the inequalities h ≤ 0.
-    fn terminal_rows<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], rows: &mut [D]);
 
     /// f and its Jacobian ∂f/∂(x, u), row-major NX × (NX + NU), by one
     /// forward-mode dual pass per input. A room that needs it fast
@@ -167,8 +160,6 @@ impl Dynamics for Model {
     const MASS: usize = ix::M;
     const THRUST: usize = 0;
     const PATH_ROWS: usize = 0;
-    const TERMINAL_EQUALITIES: usize = 0;
-    const TERMINAL_INEQUALITIES: usize = 0;
 
     fn rhs<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], u: &[D], dx: &mut [D]) {
         let s: [D; 8] = std::array::from_fn(|i| x[i]);
@@ -203,8 +194,6 @@ impl Dynamics for Model {
             _ => None,
         }
     }
-
-    fn terminal_rows<D: DualNum<Primitive = f64> + Copy>(&self, _: &[D], _: &mut [D]) {}
 }
 
 // ---------------------------------------------------------------------------
@@ -274,8 +263,6 @@ impl Dynamics for SixDof {
     const MASS: usize = sx::M;
     const THRUST: usize = su::T;
     const PATH_ROWS: usize = 2;
-    const TERMINAL_EQUALITIES: usize = 2;
-    const TERMINAL_INEQUALITIES: usize = 1;
 
     fn rhs<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], u: &[D], dx: &mut [D]) {
         let s: [D; six_dof::NX] = std::array::from_fn(|i| x[i]);
@@ -322,21 +309,12 @@ impl Dynamics for SixDof {
             sx::VX => Some(t.vx_mps),
             sx::VY => Some(0.0),
             sx::VZ => Some(t.vz_mps),
+            // The body axis vertical and up (above).
+            i if i == sx::Q + 1 || i == sx::Q + 2 => Some(0.0),
             // Pitch and yaw rates; the roll rate ω_z is free.
             i if i == sx::W || i == sx::W + 1 => Some(0.0),
             _ => None,
         }
-    }
-
-    /// R₁₃ = 2(q1q3 + q0q2) = 0 and R₂₃ = 2(q2q3 − q0q1) = 0 (the body axis
-    /// vertical), then −R₃₃|q|² = −(q0² − q1² − q2² + q3²) ≤ 0 (and up: the
-    /// equalities alone admit an upside-down landing). Written on q itself,
-    /// without dividing by |q|², which does not change their zeros.
-    fn terminal_rows<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], rows: &mut [D]) {
-        let [q0, q1, q2, q3] = [x[sx::Q], x[sx::Q + 1], x[sx::Q + 2], x[sx::Q + 3]];
-        rows[0] = (q1 * q3 + q0 * q2) * 2.0;
-        rows[1] = (q2 * q3 - q0 * q1) * 2.0;
-        rows[2] = -(q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3);
     }
 }
 
@@ -567,39 +545,47 @@ mod tests {
         assert!(g[0] > 0.0);
     }
 
+    /// The body axis R(q)e_z, from the rotation's third column.
+    fn body_axis(q: [f64; 4]) -> [f64; 3] {
+        let [q0, q1, q2, q3] = q;
+        let n2 = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3;
+        [
+            2.0 * (q1 * q3 + q0 * q2) / n2,
+            2.0 * (q2 * q3 - q0 * q1) / n2,
+            (q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3) / n2,
+        ]
+    }
+
+    /// The landing's fixed slots q1 = q2 = 0 are "the body axis vertical and
+    /// up", with the roll free: every quaternion that holds them has the
+    /// axis up, seeded quaternions with the axis up hold them, and the
+    /// upside-down attitude does not.
     #[test]
-    fn the_landing_rows_take_upright_and_refuse_upside_down() {
+    fn the_landing_fixes_upright_and_refuses_upside_down() {
         let m = six_dof();
-        let rows_at = |q: [f64; 4]| {
-            let mut x = vec![0.0; six_dof::NX];
-            x[sx::Q..sx::Q + 4].copy_from_slice(&q);
-            let mut r = [0.0; 3];
-            m.terminal_rows(&x, &mut r);
-            r
-        };
-        // Upright, with any roll about the vertical: the rows hold.
-        for roll in [0.0_f64, 0.7, -2.0] {
-            let r = rows_at([(roll / 2.0).cos(), 0.0, 0.0, (roll / 2.0).sin()]);
-            assert!(
-                r[0].abs() < 1e-15 && r[1].abs() < 1e-15 && r[2] < 0.0,
-                "{r:?}"
-            );
-        }
-        // Upside down (half a turn about x): the equalities hold, the
-        // inequality does not.
-        let r = rows_at([0.0, 1.0, 0.0, 0.0]);
-        assert!(
-            r[0].abs() < 1e-15 && r[1].abs() < 1e-15 && r[2] > 0.0,
-            "{r:?}"
-        );
-        // Tilted by 10° in pitch: an equality is off by sin 10°.
-        let t = 10f64.to_radians();
-        let r = rows_at([(t / 2.0).cos(), 0.0, (t / 2.0).sin(), 0.0]);
-        assert!((r[0] - t.sin()).abs() < 1e-15, "{r:?}");
-        // The landing fixes the pitch and yaw rates, not the roll rate.
         let target = Scenario::paper().terminal;
-        assert_eq!(m.terminal_fixed(&target, sx::W + 2), None);
-        assert_eq!(m.terminal_fixed(&target, sx::W), Some(0.0));
-        assert_eq!(m.terminal_fixed(&target, sx::Y), Some(0.0));
+        let fixed = |i: usize| m.terminal_fixed(&target, i);
+        assert_eq!((fixed(sx::Q + 1), fixed(sx::Q + 2)), (Some(0.0), Some(0.0)));
+        assert_eq!((fixed(sx::Q), fixed(sx::Q + 3)), (None, None));
+        for k in 0..50 {
+            // Any roll (or yaw) about the vertical, any norm.
+            let (a, n) = (0.37 * k as f64 - 9.0, 0.9 + 0.004 * k as f64);
+            let axis = body_axis([n * (a / 2.0).cos(), 0.0, 0.0, n * (a / 2.0).sin()]);
+            assert!(axis[0].abs() < 1e-15 && axis[1].abs() < 1e-15);
+            assert!((axis[2] - 1.0).abs() < 1e-15);
+        }
+        // Upside down: the axis is vertical (R13 = R23 = 0) but down, and q1
+        // is not 0.
+        let q = [0.0, 1.0, 0.0, 0.0];
+        assert_eq!(body_axis(q), [0.0, 0.0, -1.0]);
+        assert_ne!(q[1], 0.0);
+        // Tilted by 10° in pitch: q2 is sin 5°, not 0.
+        let t = 10f64.to_radians();
+        let axis = body_axis([(t / 2.0).cos(), 0.0, (t / 2.0).sin(), 0.0]);
+        assert!((axis[0] - t.sin()).abs() < 1e-15);
+        // The landing fixes the pitch and yaw rates, not the roll rate.
+        assert_eq!(fixed(sx::W + 2), None);
+        assert_eq!(fixed(sx::W), Some(0.0));
+        assert_eq!(fixed(sx::Y), Some(0.0));
     }
 }
