@@ -7,7 +7,9 @@ from nlp_6dof.py, which is written apart from the Rust model:
 * tests/data/six_dof_answers.json: IPOPT's answers of the 6-DoF
   transcription at N = 20 for the first three seeded 3-D states of
   `nlp_6dof.py --states` (seed 38), which the Rust transcription
-  (collocation::residuals) must find satisfied.
+  (collocation::residuals) must find satisfied, and their controls flown
+  by reintegrate6 (scipy's DOP853), which the Rust flight
+  (verify::flight) must reproduce.
 
     bench/reference/.venv/bin/python bench/reference/six_dof_fixture.py
 """
@@ -46,11 +48,15 @@ def answers(count=3, seed=38, N=20):
                                  mf_guess=m - 5000.0)
         start = six.start_state(sc, y, vy, psi, phi, rates)
         sol = six.Nlp6(sc, N).solve(start, six.attitude(0.0, psi, phi))
+        end, lowest = six.reintegrate6(sc, N, start, sol["X"], sol["U"], sol["tf_s"])
         out.append(dict(name=f"box3d{k}", converged=sol["converged"], tf_s=sol["tf_s"],
                         mf_kg=sol["mf_kg"], start=[float(v) for v in start],
                         states=[float(v) for v in sol["X"].ravel()],
-                        controls=[float(v) for v in sol["U"].ravel()]))
-        print(f"box3d{k}: {sol['status']}, tf {sol['tf_s']:.4f} s, mf {sol['mf_kg']:.3f} kg")
+                        controls=[float(v) for v in sol["U"].ravel()],
+                        flown_end=[float(v) for v in end], flown_lowest_z_m=float(lowest)))
+        miss = float(six.np.linalg.norm(end[0:3] - [sc.xf[0], 0.0, sc.xf[1]]))
+        print(f"box3d{k}: {sol['status']}, tf {sol['tf_s']:.4f} s, mf {sol['mf_kg']:.3f} kg, "
+              f"flown: miss {miss:.3f} m, lowest z {lowest:+.3f} m")
     return out
 
 

@@ -3,6 +3,7 @@
 //! error of each mesh interval, and the path constraints along the flight.
 
 pub mod accuracy;
+pub mod flight;
 pub mod mesh_error;
 pub mod ode;
 pub mod path;
