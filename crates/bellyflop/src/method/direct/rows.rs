@@ -3,7 +3,7 @@
 //! the final descent, and the approach cone. The pitch-rate limit is a
 //! simple bound on w ([`crate::method::direct::nlp`]). The cone involves x,
 //! so with it the KKT solve keeps x in its node blocks instead of
-//! eliminating it ([`crate::method::direct::kkt::eliminates_x`]).
+//! eliminating it ([`crate::method::direct::kkt::Layout::eliminates_x`]).
 //!
 //! Each row, over its scale (ĝ = g/scale, order one), enters the barrier
 //! problem without a slack, as the bounds do: −μ·ln(−ĝ) in φ_μ, a

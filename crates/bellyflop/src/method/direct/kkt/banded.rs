@@ -38,9 +38,8 @@ use faer::linalg::matmul::matmul;
 use faer::reborrow::ReborrowMut;
 use faer::{Accum, MatMut, MatRef, Par};
 
-use super::{Block8, Inertia, Ldlt};
+use super::{Inertia, Ldlt, StateBlock};
 use crate::collocation::mesh::Mesh;
-use crate::method::direct::nlp::NS;
 
 /// What R is made of, from the node blocks (every array as in
 /// [`super::KktSolver`]): the first kept state c0 (R keeps states c0 … 7:
@@ -48,11 +47,11 @@ use crate::method::direct::nlp::NS;
 /// column-major), per node Q (M by state, zero where a state is fixed), per
 /// point (R_k, T_k) by state, ν's and t̂_f's rows state-major (g's entry
 /// N·nr is ν's) and ν's diagonal.
-pub(super) struct Terms<'a> {
+pub(super) struct Terms<'a, const NS: usize> {
     pub c0: usize,
     pub d: &'a [f64],
-    pub q: &'a [Block8],
-    pub cross: &'a [(Block8, Block8)],
+    pub q: &'a [StateBlock<NS>],
+    pub cross: &'a [(StateBlock<NS>, StateBlock<NS>)],
     pub s_nu: &'a [f64],
     pub g: &'a [f64],
     pub nu_diagonal: f64,
@@ -161,7 +160,11 @@ impl Banded {
 
     /// Form and factor R; its inertia, or None when a block's unpivoted
     /// LDLᵀ meets a zero pivot or grows beyond `growth_max`.
-    pub(super) fn factor(&mut self, t: &Terms, growth_max: f64) -> Option<Inertia> {
+    pub(super) fn factor<const NS: usize>(
+        &mut self,
+        t: &Terms<NS>,
+        growth_max: f64,
+    ) -> Option<Inertia> {
         let (n, nr) = (self.n, self.nr);
         let nu = nr * n;
         self.z = [[t.nu_diagonal, t.g[nu]], [t.g[nu], t.a]];
@@ -243,7 +246,7 @@ impl Banded {
 
     /// Solve R x = b in place, `rl` in the dense path's order (state-major
     /// over the points, then ν and t̂_f).
-    pub(super) fn solve(&mut self, rl: &mut [f64]) {
+    pub(super) fn solve<const NS: usize>(&mut self, rl: &mut [f64]) {
         let (n, nr) = (self.n, self.nr);
         let nu = nr * n;
         let mut bz = [rl[nu], rl[nu + 1]];
@@ -325,7 +328,7 @@ fn gather(b: &mut Block, rl: &[f64], n: usize, nr: usize) {
 ///
 /// ℓ over the interval's n_k + 1 nodes; the D ⊗ Q part is one product
 /// P·D_kᵀ per block column (faer's matmul), as on the dense path.
-fn form_block(b: &mut Block, p: &mut [f64], t: &Terms, n: usize, nr: usize) {
+fn form_block<const NS: usize>(b: &mut Block, p: &mut [f64], t: &Terms<NS>, n: usize, nr: usize) {
     let (s, np) = (b.first, b.points);
     let c0 = t.c0;
     let m = nr * np;
@@ -381,7 +384,13 @@ fn form_block(b: &mut Block, p: &mut [f64], t: &Terms, n: usize, nr: usize) {
 
 /// U_k over the next interval's rows (first point `s`, `np` points):
 /// U[(a, c), c′] = −(D_{s+a,s} Q_s(c, c′) + [a = 0] R_s(c′, c)).
-fn coupling(u: &mut [f64], s: usize, np: usize, t: &Terms, (n, nr): (usize, usize)) {
+fn coupling<const NS: usize>(
+    u: &mut [f64],
+    s: usize,
+    np: usize,
+    t: &Terms<NS>,
+    (n, nr): (usize, usize),
+) {
     let mn = nr * np;
     let c0 = t.c0;
     let (q, r) = (&t.q[s], &t.cross[s].0);

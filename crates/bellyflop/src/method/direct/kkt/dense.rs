@@ -11,7 +11,6 @@ use faer::perm::PermRef;
 use faer::{ColMut, ColRef, MatMut, MatRef, Par};
 
 use super::Inertia;
-use crate::method::direct::nlp::NL;
 
 impl Inertia {
     /// Count a 1×1 pivot d of a factorization whose largest pivot is about
@@ -255,7 +254,7 @@ impl Ldlt {
 /// the Bunch–Kaufman fallback. faer's LBLᵀ and its solve against I took
 /// 16,000 instructions per 11-square block (callgrind), 11 % of a solve at
 /// N = 20; this takes about 3,000.
-pub(super) fn small_ldlt_inverse(
+pub(super) fn small_ldlt_inverse<const NL: usize>(
     a: &[[f64; NL]; NL],
     b: usize,
     growth_max: f64,

@@ -3,7 +3,7 @@
 
 use nalgebra::DMatrix;
 
-use crate::method::direct::nlp::{slot, Nlp};
+use super::{Layout, X};
 
 /// The exact elimination of the positions x_1 … x_{N−1} and of their
 /// defects.
@@ -42,8 +42,12 @@ impl XElimination {
     /// The elimination on `nlp`'s mesh (D column-major), or, when not
     /// `eliminate`, none: no node eliminated, ŵ = 0, so that ν's row is
     /// empty and the solve keeps x among the node blocks and R.
-    pub(super) fn new(nlp: &Nlp, d: &[f64], eliminate: bool) -> Self {
-        let n = nlp.n;
+    pub(super) fn new<const NS: usize, const NL: usize>(
+        nlp: &impl Layout<NS, NL>,
+        d: &[f64],
+        eliminate: bool,
+    ) -> Self {
+        let n = nlp.n();
         if !eliminate {
             return XElimination {
                 at: vec![false; n + 1],
@@ -54,7 +58,7 @@ impl XElimination {
             };
         }
         let at: Vec<bool> = (0..=n)
-            .map(|k| k < n && !nlp.is_fixed(nlp.idx(k, slot::X)))
+            .map(|k| k < n && !nlp.is_fixed(nlp.idx(k, X)))
             .collect();
         let nodes: Vec<usize> = (0..=n).filter(|&k| at[k]).collect();
         let ne = nodes.len();

@@ -10,10 +10,9 @@ use faer::reborrow::ReborrowMut;
 use faer::{Accum, MatMut, MatRef, Par};
 
 use super::dense::small_ldlt_inverse;
-use super::{banded, Inertia, KktMatrix, KktSolver, ReducedPath};
-use crate::method::direct::nlp::{slot, NL, NS};
+use super::{banded, Inertia, KktMatrix, KktSolver, ReducedPath, X};
 
-impl KktSolver {
+impl<const NS: usize, const NL: usize> KktSolver<NS, NL> {
     /// Factor W_k + δ I over node k's free slots and keep its inverse;
     /// returns its inertia (any zero eigenvalue leaves the inverse unusable).
     pub fn factor_node(&mut self, k: usize, w: &[[f64; NL]; NL], delta: f64) -> Inertia {
@@ -41,7 +40,8 @@ impl KktSolver {
         if inertia.zero > 0 {
             return inertia;
         }
-        let mut x = [0.0; NL * NL];
+        let mut x = [[0.0; NL]; NL];
+        let x = x.as_flattened_mut();
         for p in 0..b {
             x[p * b + p] = 1.0;
         }
@@ -60,7 +60,7 @@ impl KktSolver {
     /// The unpivoted LDLᵀ works in R's storage; on the rare fallback (about
     /// one factorization in 3,000 on the envelope) R is formed again for
     /// Bunch–Kaufman, which is cheaper on average than keeping a copy.
-    pub fn factor_reduced(&mut self, kkt: &KktMatrix) -> Inertia {
+    pub fn factor_reduced(&mut self, kkt: &KktMatrix<NS, NL>) -> Inertia {
         let rd = self.dim() + 1;
         if let Some(mut banded) = self.banded.take() {
             let (s_nunu, a) = self.node_terms(kkt, false);
@@ -129,7 +129,7 @@ impl KktSolver {
     /// (faer's SIMD matmul) instead of a scattered 49·N³ loop, which took
     /// 56 % of a solve at N = 40 (perf). ν's row is formed like any other
     /// constraint's, from its per-node coefficients e_k.
-    fn form_reduced(&mut self, kkt: &KktMatrix) {
+    fn form_reduced(&mut self, kkt: &KktMatrix<NS, NL>) {
         let (s_nunu, a) = self.node_terms(kkt, true);
         self.assemble_dense(kkt, s_nunu, a);
     }
@@ -138,7 +138,7 @@ impl KktSolver {
     /// (in `s_nu`), the kept states' Q_k, the cross terms R_k and T_k, e_k
     /// and M_k e_k, and (for the dense path, `dense`) P; returns S_νν and
     /// R's t̂_f diagonal h_tt − h_tᵀ W⁻¹ h_t.
-    fn node_terms(&mut self, kkt: &KktMatrix, dense: bool) -> (f64, f64) {
+    fn node_terms(&mut self, kkt: &KktMatrix<NS, NL>, dense: bool) -> (f64, f64) {
         let n = self.n;
         let nn = n + 1;
         let (c0, nr) = (self.c0, self.nr);
@@ -151,7 +151,7 @@ impl KktSolver {
                 g[sm(c, i)] = kkt.j_t[i][c];
             }
         }
-        g[nu] = (0..n).map(|i| self.x.null[i] * kkt.j_t[i][slot::X]).sum();
+        g[nu] = (0..n).map(|i| self.x.null[i] * kkt.j_t[i][X]).sum();
         self.s_nu.iter_mut().for_each(|v| *v = 0.0);
         let mut s_nunu = 0.0;
         let mut a = kkt.h_tt;
@@ -171,8 +171,8 @@ impl KktSolver {
             let mut e = [0.0; NL];
             for p in 0..b {
                 e[p] = if k < n {
-                    self.x.null[k] * kkt.b[k][slot::X][sl[p]]
-                } else if sl[p] == slot::X {
+                    self.x.null[k] * kkt.b[k][X][sl[p]]
+                } else if sl[p] == X {
                     self.x.null_d_last
                 } else {
                     0.0
@@ -271,7 +271,7 @@ impl KktSolver {
 
     /// R's lower triangle in `reduced.a` from the node terms, and g's t̂_f
     /// column.
-    fn assemble_dense(&mut self, kkt: &KktMatrix, s_nunu: f64, a: f64) {
+    fn assemble_dense(&mut self, kkt: &KktMatrix<NS, NL>, s_nunu: f64, a: f64) {
         let n = self.n;
         let dim = self.dim();
         let rd = dim + 1;

@@ -17,7 +17,7 @@
 //! of W), leaving one row ν of their defects; except where an operational
 //! row involves x (the approach cone, issue 37: its barrier terms give x
 //! rows of W), where x stays a state of the node blocks and of R
-//! ([`eliminates_x`]) and ν's row is a placeholder. Each block W_k (at most 12
+//! ([`Layout::eliminates_x`]) and ν's row is a placeholder. Each block W_k (at most 12
 //! square, symmetric, possibly indefinite) is factored and inverted (an
 //! unpivoted LDLᵀ with a growth test, Bunch–Kaufman as fallback); the
 //! reduced system
@@ -53,6 +53,11 @@
 //! sparse factorization's fill-in. Everything is allocated in
 //! [`KktSolver::new`]; factoring and solving allocate nothing.
 //!
+//! The sizes are const parameters, NS states with defects and NL local
+//! slots per node (8 and 12 in the plane, the defaults), and the
+//! transcription is seen through [`Layout`]: the solve is the model seam's
+//! (issue 38), with the planar one monomorphised as before.
+//!
 //! The files: this one holds the system ([`KktMatrix`]) and the solver's
 //! storage; `dense` the dense factorizations (Bunch–Kaufman, the unpivoted
 //! LDLᵀ with its growth test, the node blocks' small inverse); `elimination`
@@ -61,7 +66,8 @@
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
-use crate::method::direct::nlp::{slot, Nlp, NL, NS};
+use crate::collocation::mesh::Mesh;
+use crate::method::direct::nlp::{Nlp, NL as PLANAR_NL, NS as PLANAR_NS};
 
 mod banded;
 mod dense;
@@ -72,12 +78,17 @@ mod solve;
 use dense::{Lblt, Ldlt};
 use elimination::XElimination;
 
-/// An 8×8 block over the states.
-type Block8 = [[f64; NS]; NS];
+/// A block over the states (8×8 in the plane).
+type StateBlock<const NS: usize> = [[f64; NS]; NS];
+
+/// The state that the solve can eliminate exactly: the first, the downrange
+/// position x (linear, ẋ = Vx, with zero rows of W unless a row involves
+/// it), in the planar model's layout and the 6-DoF one's alike.
+const X: usize = 0;
 
 /// The blocks of one Newton system (scaled units), set by the caller.
 #[derive(Debug, Clone)]
-pub struct KktMatrix {
+pub struct KktMatrix<const NS: usize = PLANAR_NS, const NL: usize = PLANAR_NL> {
     /// Per node: W_k over the local slots (only the free ones are read).
     pub w: Vec<[[f64; NL]; NL]>,
     /// Per node: ∂²L/∂t̂∂ŵ_k.
@@ -91,15 +102,15 @@ pub struct KktMatrix {
     pub delta_c: f64,
 }
 
-impl KktMatrix {
+impl<const NS: usize, const NL: usize> KktMatrix<NS, NL> {
     /// A zero system for `nlp`.
-    pub fn zeros(nlp: &Nlp) -> Self {
+    pub fn zeros(nlp: &impl Layout<NS, NL>) -> Self {
         KktMatrix {
-            w: vec![[[0.0; NL]; NL]; nlp.n + 1],
-            h_t: vec![[0.0; NL]; nlp.n + 1],
+            w: vec![[[0.0; NL]; NL]; nlp.n() + 1],
+            h_t: vec![[0.0; NL]; nlp.n() + 1],
             h_tt: 0.0,
-            b: vec![[[0.0; NL]; NS]; nlp.n],
-            j_t: vec![[0.0; NS]; nlp.n],
+            b: vec![[[0.0; NL]; NS]; nlp.n()],
+            j_t: vec![[0.0; NS]; nlp.n()],
             delta_c: 0.0,
         }
     }
@@ -119,7 +130,10 @@ impl KktMatrix {
     /// multipliers: the matrix a general sparse LDLᵀ would factor. Returns
     /// the number of free variables, the dimension and the triplets.
     #[allow(clippy::type_complexity)]
-    pub fn upper_triplets(&self, nlp: &Nlp) -> (usize, usize, Vec<usize>, Vec<usize>, Vec<f64>) {
+    pub fn upper_triplets(
+        &self,
+        nlp: &impl Layout<NS, NL>,
+    ) -> (usize, usize, Vec<usize>, Vec<usize>, Vec<f64>) {
         let nv = nlp.n_var();
         let mut index = vec![usize::MAX; nv];
         let mut nf = 0;
@@ -137,7 +151,7 @@ impl KktMatrix {
             vv.push(v);
         };
         let tf = index[nlp.tf_idx()];
-        for k in 0..=nlp.n {
+        for k in 0..=nlp.n() {
             for r in 0..NL {
                 let jr = index[nlp.idx(k, r)];
                 if jr == usize::MAX {
@@ -153,8 +167,8 @@ impl KktMatrix {
             }
         }
         push(tf, tf, self.h_tt);
-        for i in 0..nlp.n {
-            let (first, row) = nlp.mesh.d_row(i);
+        for i in 0..nlp.n() {
+            let (first, row) = nlp.mesh().d_row(i);
             for c in 0..NS {
                 let l = nf + i * NS + c;
                 // D and B may both touch the point's own state: sum them.
@@ -193,8 +207,15 @@ impl KktMatrix {
     /// zero, and y_w's are zero), for the residuals of iterative refinement
     /// and the tests. Fixed slots are masked once, so that the products run
     /// without a test per entry (they were 9 % of a solve at N = 20).
-    pub fn multiply(&self, nlp: &Nlp, x_w: &[f64], x_l: &[f64], y_w: &mut [f64], y_l: &mut [f64]) {
-        let n = nlp.n;
+    pub fn multiply(
+        &self,
+        nlp: &impl Layout<NS, NL>,
+        x_w: &[f64],
+        x_l: &[f64],
+        y_w: &mut [f64],
+        y_l: &mut [f64],
+    ) {
+        let n = nlp.n();
         let tf = nlp.tf_idx();
         let free = |j: usize| !nlp.is_fixed(j);
         let masked = |j: usize| if free(j) { x_w[j] } else { 0.0 };
@@ -211,7 +232,7 @@ impl KktMatrix {
         }
         // Jacobian rows and their transposes.
         for i in 0..n {
-            let (first, row) = nlp.mesh.d_row(i);
+            let (first, row) = nlp.mesh().d_row(i);
             let xi: [f64; NL] = std::array::from_fn(|s| masked(nlp.idx(i, s)));
             let li = &x_l[i * NS..(i + 1) * NS];
             for c in 0..NS {
@@ -280,17 +301,68 @@ pub enum ReducedPath {
 /// error of about 1e-10·|R|, which the refinement removes.
 pub const GROWTH_MAX: f64 = 1e6;
 
-/// Whether x_1 … x_{N−1} and their defects are eliminated from the
-/// system (`XElimination`): unless an operational row involves x (the
-/// approach cone, issue 37), whose barrier terms give x rows of W.
-pub fn eliminates_x(nlp: &Nlp) -> bool {
-    !nlp.limits
-        .iter()
-        .any(|r| r.limit == crate::problem::constraints::Limit::Cone)
+/// What the structured KKT solve needs of a transcription: its sizes (NS
+/// states with defects, NL local slots per node), its layout and mesh,
+/// which variables are fixed, and whether x is eliminated.
+pub trait Layout<const NS: usize, const NL: usize> {
+    /// Collocation points N.
+    fn n(&self) -> usize;
+    /// Index of slot `s` of node `k` in the full vector.
+    fn idx(&self, k: usize, s: usize) -> usize;
+    /// Index of t̂_f.
+    fn tf_idx(&self) -> usize;
+    /// Length of the full vector.
+    fn n_var(&self) -> usize;
+    /// Number of defects, N·NS.
+    fn n_con(&self) -> usize;
+    /// Whether variable `j` is fixed.
+    fn is_fixed(&self, j: usize) -> bool;
+    fn mesh(&self) -> &Mesh;
+    /// For each node k: the collocation points i with D_ik ≠ 0 and D_ik.
+    fn d_cols(&self) -> &[Vec<(usize, f64)>];
+    /// Whether x_1 … x_{N−1} (the first state) and their defects are eliminated
+    /// from the system (`XElimination`).
+    fn eliminates_x(&self) -> bool;
+}
+
+/// The planar P2 transcription. It eliminates x unless an operational row
+/// involves x (the approach cone, issue 37), whose barrier terms give x
+/// rows of W.
+impl Layout<PLANAR_NS, PLANAR_NL> for Nlp {
+    fn n(&self) -> usize {
+        self.n
+    }
+    fn idx(&self, k: usize, s: usize) -> usize {
+        Nlp::idx(self, k, s)
+    }
+    fn tf_idx(&self) -> usize {
+        Nlp::tf_idx(self)
+    }
+    fn n_var(&self) -> usize {
+        Nlp::n_var(self)
+    }
+    fn n_con(&self) -> usize {
+        Nlp::n_con(self)
+    }
+    fn is_fixed(&self, j: usize) -> bool {
+        Nlp::is_fixed(self, j)
+    }
+    fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+    fn d_cols(&self) -> &[Vec<(usize, f64)>] {
+        &self.d_cols
+    }
+    fn eliminates_x(&self) -> bool {
+        !self
+            .limits
+            .iter()
+            .any(|r| r.limit == crate::problem::constraints::Limit::Cone)
+    }
 }
 
 /// Storage and factors of the structured KKT solve.
-pub struct KktSolver {
+pub struct KktSolver<const NS: usize = PLANAR_NS, const NL: usize = PLANAR_NL> {
     n: usize,
     /// Per node: the free local slots in the node block (x excluded where
     /// eliminated), in order, and each slot's position (usize::MAX: none).
@@ -315,7 +387,7 @@ pub struct KktSolver {
     banded: Option<banded::Banded>,
     /// Per node: M_k over the states, by state (zero where a state is
     /// fixed or not kept).
-    q: Vec<Block8>,
+    q: Vec<StateBlock<NS>>,
     /// Per node k: the rows i with D_ik ≠ 0, as a range (lo, hi).
     col_rows: Vec<(usize, usize)>,
     growth_max: f64,
@@ -345,27 +417,27 @@ pub struct KktSolver {
     /// P = (I ⊗ D)·blockdiag(Q) over the kept states: rN × r(N+1), column-major (r = 7, or 8 with x).
     p: Vec<f64>,
     /// Per collocation point: R_k = E M Bᵀ and T_k = B M Bᵀ.
-    cross: Vec<(Block8, Block8)>,
+    cross: Vec<(StateBlock<NS>, StateBlock<NS>)>,
 }
 
-impl KktSolver {
-    pub fn new(nlp: &Nlp) -> Self {
-        let n = nlp.n;
+impl<const NS: usize, const NL: usize> KktSolver<NS, NL> {
+    pub fn new(nlp: &impl Layout<NS, NL>) -> Self {
+        let n = nlp.n();
         let mut d = vec![0.0; n * (n + 1)];
         let mut d_rows = vec![0.0; n * (n + 1)];
-        for (k, col) in nlp.d_cols.iter().enumerate() {
+        for (k, col) in nlp.d_cols().iter().enumerate() {
             for &(i, v) in col {
                 d[k * n + i] = v;
                 d_rows[i * (n + 1) + k] = v;
             }
         }
-        let c0 = usize::from(eliminates_x(nlp));
+        let c0 = usize::from(nlp.eliminates_x());
         let nr = NS - c0;
         let x = XElimination::new(nlp, &d, c0 == 1);
         let slots: Vec<Vec<usize>> = (0..=n)
             .map(|k| {
                 (0..NL)
-                    .filter(|&s| !(nlp.is_fixed(nlp.idx(k, s)) || s == slot::X && x.at[k]))
+                    .filter(|&s| !(nlp.is_fixed(nlp.idx(k, s)) || s == X && x.at[k]))
                     .collect()
             })
             .collect();
@@ -382,7 +454,7 @@ impl KktSolver {
         let ne = x.nodes.len();
         let rd = nr * n + 2;
         let col_rows = nlp
-            .d_cols
+            .d_cols()
             .iter()
             .map(|col| {
                 let lo = col.iter().map(|&(i, _)| i).min().unwrap_or(0);
@@ -401,7 +473,7 @@ impl KktSolver {
             node: Lblt::new(NL, NL),
             reduced: Lblt::new(rd, 1),
             unpivoted: Ldlt::new(rd),
-            banded: (nlp.mesh.intervals.len() > 1).then(|| banded::Banded::new(&nlp.mesh, nr)),
+            banded: (nlp.mesh().intervals.len() > 1).then(|| banded::Banded::new(nlp.mesh(), nr)),
             q: vec![[[0.0; NS]; NS]; n + 1],
             col_rows,
             growth_max: GROWTH_MAX,
@@ -428,26 +500,24 @@ impl KktSolver {
     /// columns) and the same fixed variables, the two things [`Self::new`]
     /// builds its structure from. A re-plan of the same problem keeps
     /// both, so it can [`Self::reset`] this solver instead of building one.
-    pub fn fits(&self, nlp: &Nlp) -> bool {
+    pub fn fits(&self, nlp: &impl Layout<NS, NL>) -> bool {
         let eliminating = self.c0 == 1;
-        nlp.n == self.n
-            && eliminates_x(nlp) == eliminating
+        nlp.n() == self.n
+            && nlp.eliminates_x() == eliminating
             && (0..=self.n).all(|k| {
-                let free =
-                    |s: usize| !(nlp.is_fixed(nlp.idx(k, s)) || s == slot::X && self.x.at[k]);
+                let free = |s: usize| !(nlp.is_fixed(nlp.idx(k, s)) || s == X && self.x.at[k]);
                 (0..NL)
                     .filter(|&s| free(s))
                     .eq(self.slots[k].iter().copied())
-                    && self.x.at[k]
-                        == (eliminating && k < self.n && !nlp.is_fixed(nlp.idx(k, slot::X)))
+                    && self.x.at[k] == (eliminating && k < self.n && !nlp.is_fixed(nlp.idx(k, X)))
             })
             && nlp
-                .d_cols
+                .d_cols()
                 .iter()
                 .enumerate()
                 .all(|(k, col)| col.iter().all(|&(i, v)| self.d[k * self.n + i] == v))
             && self.d.iter().filter(|&&v| v != 0.0).count()
-                == nlp.d_cols.iter().map(Vec::len).sum::<usize>()
+                == nlp.d_cols().iter().map(Vec::len).sum::<usize>()
     }
 
     /// Back to the state of [`Self::new`] for the same structure: every
@@ -496,7 +566,7 @@ impl KktSolver {
     /// free positions x_1 … x_{N−1}): their rows of W and h_t must be zero,
     /// and the solve neither reads nor regularizes them.
     pub fn eliminates(&self, k: usize, s: usize) -> bool {
-        s == slot::X && self.x.at[k]
+        s == X && self.x.at[k]
     }
 
     /// Number of variables of node k's block.

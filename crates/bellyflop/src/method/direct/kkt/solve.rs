@@ -5,16 +5,15 @@
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
-use super::{KktMatrix, KktSolver, Ldlt, ReducedPath};
-use crate::method::direct::nlp::{slot, Nlp, NL, NS};
+use super::{KktMatrix, KktSolver, Layout, Ldlt, ReducedPath, X};
 
-impl KktSolver {
+impl<const NS: usize, const NL: usize> KktSolver<NS, NL> {
     /// Solve K [x_w; x_l] = [r_w; r_l] with the current factors (full layout;
     /// fixed slots of x_w are zero).
     pub fn solve(
         &mut self,
-        nlp: &Nlp,
-        kkt: &KktMatrix,
+        nlp: &impl Layout<NS, NL>,
+        kkt: &KktMatrix<NS, NL>,
         r_w: &[f64],
         r_l: &[f64],
         x_w: &mut [f64],
@@ -37,29 +36,34 @@ impl KktSolver {
 
     /// x: q = A⁺ᵀ r_x (in `xq`), λ_x's part in range(A); B̃ᵀq leaves the
     /// right-hand side.
-    fn project_x_rhs(&mut self, nlp: &Nlp, r_w: &[f64]) {
+    fn project_x_rhs(&mut self, nlp: &impl Layout<NS, NL>, r_w: &[f64]) {
         for (e, &k) in self.x.nodes.iter().enumerate() {
-            self.xe[e] = r_w[nlp.idx(k, slot::X)];
+            self.xe[e] = r_w[nlp.idx(k, X)];
         }
         self.x.pinv_t_mul(&self.xe, &mut self.xq);
     }
 
     /// Per node: r_k (less B̃ᵀq), ỹ = M r_k, r̃_t = r_t − h_tᵀ ỹ, and ỹ by
     /// state; returns r̃_t.
-    fn forward_nodes(&mut self, nlp: &Nlp, kkt: &KktMatrix, r_w: &[f64]) -> f64 {
+    fn forward_nodes(
+        &mut self,
+        nlp: &impl Layout<NS, NL>,
+        kkt: &KktMatrix<NS, NL>,
+        r_w: &[f64],
+    ) -> f64 {
         let n = self.n;
         let nn = n + 1;
         let tf = nlp.tf_idx();
         let q = &self.xq;
-        let mut rt = r_w[tf] - (0..n).map(|i| kkt.j_t[i][slot::X] * q[i]).sum::<f64>();
+        let mut rt = r_w[tf] - (0..n).map(|i| kkt.j_t[i][X] * q[i]).sum::<f64>();
         for k in 0..=n {
             let sl = &self.slots[k];
             let mut r = [0.0; NL];
             for (p, &s) in sl.iter().enumerate() {
                 r[p] = r_w[nlp.idx(k, s)]
                     - if k < n {
-                        kkt.b[k][slot::X][s] * q[k]
-                    } else if s == slot::X {
+                        kkt.b[k][X][s] * q[k]
+                    } else if s == X {
                         let d_col = &self.d[n * n..nn * n];
                         d_col.iter().zip(q).map(|(d, q)| d * q).sum::<f64>()
                     } else {
@@ -84,7 +88,7 @@ impl KktSolver {
 
     /// R's right-hand side into `rl`: r_λ − J ỹ over the kept rows,
     /// ŵᵀr_λx − eᵀỹ, r̃_t.
-    fn reduced_rhs(&self, kkt: &KktMatrix, r_l: &[f64], rt: f64, rl: &mut [f64]) {
+    fn reduced_rhs(&self, kkt: &KktMatrix<NS, NL>, r_l: &[f64], rt: f64, rl: &mut [f64]) {
         let n = self.n;
         let nn = n + 1;
         let dim = self.dim();
@@ -115,7 +119,7 @@ impl KktSolver {
             }
         }
         rl[nu] = (0..n)
-            .map(|i| self.x.null[i] * r_l[i * NS + slot::X])
+            .map(|i| self.x.null[i] * r_l[i * NS + X])
             .sum::<f64>()
             - (0..=n)
                 .map(|k| {
@@ -139,7 +143,7 @@ impl KktSolver {
                 .banded
                 .as_mut()
                 .expect("the banded path has its factors")
-                .solve(&mut rl[..dim + 1]),
+                .solve::<NS>(&mut rl[..dim + 1]),
         }
     }
 
@@ -147,8 +151,8 @@ impl KktSolver {
     /// J_kᵀλ's D part as one contiguous dot product per kept state.
     fn back_substitute(
         &mut self,
-        nlp: &Nlp,
-        kkt: &KktMatrix,
+        nlp: &impl Layout<NS, NL>,
+        kkt: &KktMatrix<NS, NL>,
         rl: &[f64],
         (t, nu_v): (f64, f64),
         x_w: &mut [f64],
@@ -196,8 +200,8 @@ impl KktSolver {
     /// x: Δx = A⁺(r_λx − B̃y + δ_c q) and λ_x = q + ŵν.
     fn recover_x(
         &mut self,
-        nlp: &Nlp,
-        kkt: &KktMatrix,
+        nlp: &impl Layout<NS, NL>,
+        kkt: &KktMatrix<NS, NL>,
         r_l: &[f64],
         (t, nu_v): (f64, f64),
         x_w: &mut [f64],
@@ -208,23 +212,22 @@ impl KktSolver {
             return;
         }
         let n = self.n;
-        let x_n = if self.pos[n][slot::X] == usize::MAX {
+        let x_n = if self.pos[n][X] == usize::MAX {
             0.0
         } else {
-            self.y_tmp[n][self.pos[n][slot::X]]
+            self.y_tmp[n][self.pos[n][X]]
         };
         for i in 0..n {
             let sl = &self.slots[i];
             let y = &self.y_tmp[i];
-            let by: f64 = (0..sl.len()).map(|p| kkt.b[i][slot::X][sl[p]] * y[p]).sum();
-            self.xv[i] =
-                r_l[i * NS + slot::X] - by - self.d[n * n + i] * x_n - kkt.j_t[i][slot::X] * t
-                    + kkt.delta_c * self.xq[i];
-            x_l[i * NS + slot::X] = self.xq[i] + self.x.null[i] * nu_v;
+            let by: f64 = (0..sl.len()).map(|p| kkt.b[i][X][sl[p]] * y[p]).sum();
+            self.xv[i] = r_l[i * NS + X] - by - self.d[n * n + i] * x_n - kkt.j_t[i][X] * t
+                + kkt.delta_c * self.xq[i];
+            x_l[i * NS + X] = self.xq[i] + self.x.null[i] * nu_v;
         }
         self.x.pinv_mul(&self.xv, &mut self.xe);
         for (e, &k) in self.x.nodes.iter().enumerate() {
-            x_w[nlp.idx(k, slot::X)] = self.xe[e];
+            x_w[nlp.idx(k, X)] = self.xe[e];
         }
     }
 }
@@ -234,6 +237,7 @@ mod tests {
     use super::*;
     use crate::input::scenario::Scenario;
     use crate::method::direct::kkt::Inertia;
+    use crate::method::direct::nlp::{Nlp, NL, NS};
     use nalgebra::{DMatrix, DVector};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -269,18 +273,18 @@ mod tests {
         // no t̂_f cross term, no other defect depends on it (x_N, when free,
         // keeps its Hessian: the soft terminal term's). With a cone, x's
         // rows of W carry its barrier terms.
-        let cone = !crate::method::direct::kkt::eliminates_x(nlp);
+        let cone = !crate::method::direct::kkt::Layout::eliminates_x(nlp);
         for node in 0..nlp.n {
             if cone {
                 continue;
             }
             for r in 0..NL {
-                k.w[node][slot::X][r] = 0.0;
-                k.w[node][r][slot::X] = 0.0;
+                k.w[node][X][r] = 0.0;
+                k.w[node][r][X] = 0.0;
             }
-            k.h_t[node][slot::X] = 0.0;
+            k.h_t[node][X] = 0.0;
             for c in 0..NS {
-                k.b[node][c][slot::X] = 0.0;
+                k.b[node][c][X] = 0.0;
             }
         }
         k.delta_c = if definite { 1e-2 } else { 1e-9 };
@@ -334,7 +338,7 @@ mod tests {
             let kkt = random_system(&nlp, &mut rng, definite);
             let mut solver = KktSolver::new(&nlp);
             assert_eq!(
-                crate::method::direct::kkt::eliminates_x(&nlp),
+                crate::method::direct::kkt::Layout::eliminates_x(&nlp),
                 !cone,
                 "x is kept exactly where a cone is"
             );
