@@ -1,5 +1,6 @@
 //! The direct method's Newton (KKT) solve against QDLDL on the same matrix,
-//! and the direct method's cold solve against SCvx's (issue 15).
+//! and the direct method's cold solve against SCvx's (issue 15); and the
+//! same solve at the 6-DoF model's sizes (issue 38).
 //!
 //! `cargo bench -p bellyflop --bench kkt`
 //!
@@ -20,15 +21,22 @@
 use std::hint::black_box;
 use std::time::Duration;
 
+use bellyflop::collocation::mesh::Mesh;
+use bellyflop::input::scenario::Scenario;
 use bellyflop::input::settings::DirectSettings;
-use bellyflop::method::direct::kkt::{KktMatrix, KktSolver};
+use bellyflop::method::direct::kkt::{KktMatrix, KktSolver, Layout, ReducedPath};
 use bellyflop::method::direct::nlp::{Nlp, NL, NS};
 use bellyflop::method::direct::{self, lagrangian_blocks};
 use bellyflop::method::observer::Silent;
+use bellyflop::problem::model::Dynamics;
+use bellyflop::problem::six_dof::{self, SixDof};
 use bellyflop::{Case, Method, Status};
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode};
+use criterion::measurement::WallTime;
+use criterion::{
+    criterion_group, criterion_main, BenchmarkGroup, BenchmarkId, Criterion, SamplingMode,
+};
 
 fn paper(n: usize) -> Case {
     let mut s = Case::paper();
@@ -76,6 +84,62 @@ fn system(n: usize, intervals: usize) -> (Nlp, KktMatrix) {
     (nlp, kkt)
 }
 
+/// Benchmarks one Newton system two ways, as `structured/{id}` (every
+/// node block, R, one solve) and `qdldl/{id}` (QDLDL's numeric
+/// refactorization of the same matrix and one solve); returns K's
+/// dimension, its stored nonzeros, those of QDLDL's L and R's last path.
+fn structured_and_qdldl<const NS: usize, const NL: usize>(
+    g: &mut BenchmarkGroup<WallTime>,
+    id: &str,
+    layout: &impl Layout<NS, NL>,
+    kkt: &KktMatrix<NS, NL>,
+) -> (usize, usize, usize, ReducedPath) {
+    let (nv, nc) = (layout.n_var(), layout.n_con());
+    let rw: Vec<f64> = (0..nv)
+        .map(|j| {
+            if layout.is_fixed(j) {
+                0.0
+            } else {
+                (j as f64 * 0.3).sin()
+            }
+        })
+        .collect();
+    let rl: Vec<f64> = (0..nc).map(|r| (r as f64 * 0.7).cos()).collect();
+    let mut solver = KktSolver::new(layout);
+    let (mut xw, mut xl) = (vec![0.0; nv], vec![0.0; nc]);
+    g.bench_function(BenchmarkId::new("structured", id), |b| {
+        b.iter(|| {
+            for k in 0..=layout.n() {
+                black_box(solver.factor_node(k, &kkt.w[k], 0.0));
+            }
+            black_box(solver.factor_reduced(kkt));
+            solver.solve(layout, kkt, &rw, &rl, &mut xw, &mut xl);
+            black_box(xw[0])
+        })
+    });
+    let (nf, dim, ri, ci, vv) = kkt.upper_triplets(layout);
+    let k = CscMatrix::new_from_triplets(dim, dim, ri, ci, vv);
+    let mut signs = vec![1i8; nf];
+    signs.resize(dim, -1);
+    let opts = QDLDLSettingsBuilder::default()
+        .Dsigns(signs)
+        .build()
+        .expect("QDLDL settings");
+    let mut ldl = QDLDLFactorisation::new(&k, Some(opts)).expect("QDLDL factors K");
+    let mut rhs = vec![0.0; dim];
+    g.bench_function(BenchmarkId::new("qdldl", id), |b| {
+        b.iter(|| {
+            ldl.refactor().expect("QDLDL refactors K");
+            rhs.iter_mut()
+                .enumerate()
+                .for_each(|(i, v)| *v = (i as f64 * 0.3).sin());
+            ldl.solve(&mut rhs);
+            black_box(rhs[0])
+        })
+    });
+    (dim, k.nnz(), ldl.nnzL(), solver.reduced_path())
+}
+
 fn kkt_solve(c: &mut Criterion) {
     let mut g = c.benchmark_group("kkt");
     g.warm_up_time(Duration::from_secs(1));
@@ -88,55 +152,11 @@ fn kkt_solve(c: &mut Criterion) {
         } else {
             format!("{n}_over_{intervals}")
         };
-        let rw: Vec<f64> = (0..nlp.n_var())
-            .map(|j| {
-                if nlp.is_fixed(j) {
-                    0.0
-                } else {
-                    (j as f64 * 0.3).sin()
-                }
-            })
-            .collect();
-        let rl: Vec<f64> = (0..nlp.n_con()).map(|r| (r as f64 * 0.7).cos()).collect();
-        let mut solver = KktSolver::new(&nlp);
-        let (mut xw, mut xl) = (vec![0.0; nlp.n_var()], vec![0.0; nlp.n_con()]);
-        g.bench_with_input(BenchmarkId::new("structured", &id), &n, |b, _| {
-            b.iter(|| {
-                for k in 0..=nlp.n {
-                    black_box(solver.factor_node(k, &kkt.w[k], 0.0));
-                }
-                black_box(solver.factor_reduced(&kkt));
-                solver.solve(&nlp, &kkt, &rw, &rl, &mut xw, &mut xl);
-                black_box(xw[0])
-            })
-        });
-        let (nf, dim, ri, ci, vv) = kkt.upper_triplets(&nlp);
-        let k = CscMatrix::new_from_triplets(dim, dim, ri, ci, vv);
-        let mut signs = vec![1i8; nf];
-        signs.resize(dim, -1);
-        let opts = QDLDLSettingsBuilder::default()
-            .Dsigns(signs)
-            .build()
-            .expect("QDLDL settings");
-        let mut ldl = QDLDLFactorisation::new(&k, Some(opts)).expect("QDLDL factors K");
-        let mut rhs = vec![0.0; dim];
-        g.bench_with_input(BenchmarkId::new("qdldl", &id), &n, |b, _| {
-            b.iter(|| {
-                ldl.refactor().expect("QDLDL refactors K");
-                rhs.iter_mut()
-                    .enumerate()
-                    .for_each(|(i, v)| *v = (i as f64 * 0.3).sin());
-                ldl.solve(&mut rhs);
-                black_box(rhs[0])
-            })
-        });
+        let (dim, nnz, nnz_l, path) = structured_and_qdldl(&mut g, &id, &nlp, &kkt);
         println!(
-            "N = {n} over {intervals} intervals: K is {dim} square, {} stored nonzeros; QDLDL's L has {} nonzeros; reduced system {} square ({}); last path {:?}",
-            k.nnz(),
-            ldl.nnzL(),
+            "N = {n} over {intervals} intervals: K is {dim} square, {nnz} stored nonzeros; QDLDL's L has {nnz_l} nonzeros; reduced system {} square ({}); last path {path:?}",
             7 * nlp.n + 2,
             if intervals == 1 { "dense" } else { "block-tridiagonal" },
-            solver.reduced_path(),
         );
     }
     g.finish();
@@ -165,5 +185,127 @@ fn cold_solve(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, kkt_solve, cold_solve);
+const NS6: usize = six_dof::NX;
+/// A 6-DoF node: 16 states, 3 controls and the two thrust slacks.
+const NL6: usize = NS6 + six_dof::NU + 2;
+
+/// The 6-DoF transcription's shape (no 6-DoF NLP exists yet): node 0's
+/// states fixed, node N's controls and the model's landing slots fixed,
+/// the slacks fixed, x eliminated.
+struct SixDofShape {
+    mesh: Mesh,
+    d_cols: Vec<Vec<(usize, f64)>>,
+    fixed: Vec<bool>,
+}
+
+impl Layout<NS6, NL6> for SixDofShape {
+    fn n(&self) -> usize {
+        self.mesh.n
+    }
+    fn idx(&self, k: usize, s: usize) -> usize {
+        k * NL6 + s
+    }
+    fn tf_idx(&self) -> usize {
+        (self.mesh.n + 1) * NL6
+    }
+    fn n_var(&self) -> usize {
+        self.tf_idx() + 1
+    }
+    fn n_con(&self) -> usize {
+        self.mesh.n * NS6
+    }
+    fn is_fixed(&self, j: usize) -> bool {
+        self.fixed[j]
+    }
+    fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+    fn d_cols(&self) -> &[Vec<(usize, f64)>] {
+        &self.d_cols
+    }
+    fn eliminates_x(&self) -> bool {
+        true
+    }
+}
+
+/// A Newton system of the 6-DoF shape on `n` points over `intervals`:
+/// seeded node blocks AᵀA/NL + I (the barrier makes them definite at most
+/// iterates; the cost does not depend on the values), x's rows zero.
+fn six_dof_system(n: usize, intervals: usize) -> (SixDofShape, KktMatrix<NS6, NL6>) {
+    let mesh = Mesh::uniform(n, intervals);
+    let d_cols = mesh.d_columns();
+    let s = Scenario::paper();
+    let model = SixDof::new(&s.vehicle, &s.environment);
+    let fixed = (0..(n + 1) * NL6 + 1)
+        .map(|j| {
+            let (k, slot) = (j / NL6, j % NL6);
+            k <= n
+                && ((k == 0 && slot < NS6)
+                    || (k == n && slot >= NS6)
+                    || slot >= NL6 - 2
+                    || (k == n && model.terminal_fixed(&s.terminal, slot).is_some()))
+        })
+        .collect();
+    let shape = SixDofShape {
+        mesh,
+        d_cols,
+        fixed,
+    };
+    let mut seed = 38u64;
+    let mut next = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let mut kkt = KktMatrix::zeros(&shape);
+    for w in &mut kkt.w {
+        let a: [[f64; NL6]; NL6] = std::array::from_fn(|_| std::array::from_fn(|_| next()));
+        for r in 0..NL6 {
+            for c in 0..NL6 {
+                w[r][c] = (0..NL6).map(|q| a[r][q] * a[c][q]).sum::<f64>() / NL6 as f64
+                    + if r == c { 1.0 } else { 0.0 };
+            }
+        }
+    }
+    for node in 0..n {
+        for r in 0..NL6 {
+            kkt.w[node][0][r] = 0.0;
+            kkt.w[node][r][0] = 0.0;
+        }
+        kkt.b[node] = std::array::from_fn(|_| std::array::from_fn(|_| next()));
+        kkt.j_t[node] = std::array::from_fn(|_| next());
+        for c in 0..NS6 {
+            kkt.b[node][c][0] = 0.0;
+        }
+    }
+    kkt.h_tt = 5.0;
+    kkt.delta_c = 1e-9;
+    (shape, kkt)
+}
+
+/// The structured solve and QDLDL at the 6-DoF model's sizes (issue 38),
+/// beside the planar `kkt` group: its per-iteration cost decides whether a
+/// 6-DoF direct solve can be several times faster than IPOPT's.
+fn kkt_six_dof(c: &mut Criterion) {
+    let mut g = c.benchmark_group("kkt_six_dof");
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(3));
+    for (n, intervals) in [(20, 1), (40, 8)] {
+        let (shape, kkt) = six_dof_system(n, intervals);
+        let id = if intervals == 1 {
+            n.to_string()
+        } else {
+            format!("{n}_over_{intervals}")
+        };
+        let (dim, _, nnz_l, path) = structured_and_qdldl(&mut g, &id, &shape, &kkt);
+        println!(
+            "6-DoF shape, N = {n} over {intervals} intervals: K is {dim} square; QDLDL's L has {nnz_l} nonzeros; reduced system {} square; last path {path:?}",
+            (NS6 - 1) * n + 2,
+        );
+    }
+    g.finish();
+}
+
+criterion_group!(benches, kkt_solve, kkt_six_dof, cold_solve);
 criterion_main!(benches);

@@ -7,6 +7,26 @@
 
 use bellyflop::input::scenario::Scenario;
 use bellyflop::problem::six_dof::{self, SixDof, NU, NX};
+use bellyflop::Mesh;
+
+/// A fixture's array of numbers.
+fn read(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+/// IPOPT's 6-DoF answers, the paper's scenario and model, and their mesh.
+fn answers() -> (serde_json::Value, Scenario, SixDof, Mesh) {
+    let data: serde_json::Value =
+        serde_json::from_str(include_str!("data/six_dof_answers.json")).unwrap();
+    let paper = Scenario::paper();
+    let model = SixDof::new(&paper.vehicle, &paper.environment);
+    let mesh = Mesh::global(data["nodes"].as_u64().unwrap() as usize);
+    (data, paper, model, mesh)
+}
 
 #[test]
 fn the_model_agrees_with_the_references_own() {
@@ -15,13 +35,6 @@ fn the_model_agrees_with_the_references_own() {
     let paper = Scenario::paper();
     let mut model = SixDof::new(&paper.vehicle, &paper.environment);
     assert_eq!(data["kappa_per_s"].as_f64(), Some(model.norm_gain_per_s));
-    let read = |v: &serde_json::Value| -> Vec<f64> {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect()
-    };
     let cases = data["cases"].as_array().unwrap();
     assert_eq!(cases.len(), 50);
     for (k, case) in cases.iter().enumerate() {
@@ -52,20 +65,8 @@ fn the_model_agrees_with_the_references_own() {
 fn the_references_answers_satisfy_our_transcription() {
     use bellyflop::collocation::residuals::{residuals, Answer};
     use bellyflop::problem::six_dof::sx;
-    use bellyflop::Mesh;
 
-    let data: serde_json::Value =
-        serde_json::from_str(include_str!("data/six_dof_answers.json")).unwrap();
-    let paper = Scenario::paper();
-    let model = SixDof::new(&paper.vehicle, &paper.environment);
-    let mesh = Mesh::global(data["nodes"].as_u64().unwrap() as usize);
-    let read = |v: &serde_json::Value| -> Vec<f64> {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect()
-    };
+    let (data, paper, model, mesh) = answers();
     let worst = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
     let answers = data["answers"].as_array().unwrap();
     assert_eq!(answers.len(), 3);
@@ -129,20 +130,8 @@ fn the_references_answers_fly_as_the_reference_flies_them() {
     use bellyflop::problem::six_dof::{su, sx};
     use bellyflop::verify::flight::{collocation_controls, fly};
     use bellyflop::verify::ode::Dop853;
-    use bellyflop::Mesh;
 
-    let data: serde_json::Value =
-        serde_json::from_str(include_str!("data/six_dof_answers.json")).unwrap();
-    let paper = Scenario::paper();
-    let model = SixDof::new(&paper.vehicle, &paper.environment);
-    let mesh = Mesh::global(data["nodes"].as_u64().unwrap() as usize);
-    let read = |v: &serde_json::Value| -> Vec<f64> {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect()
-    };
+    let (data, paper, model, mesh) = answers();
     let mut through_ground = 0;
     for a in data["answers"].as_array().unwrap() {
         let name = a["name"].as_str().unwrap();

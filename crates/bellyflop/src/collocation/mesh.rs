@@ -185,6 +185,21 @@ impl Mesh {
         (s, r)
     }
 
+    /// D by columns: for each node k, the collocation points i with
+    /// D_ik ≠ 0 and D_ik (the transpose products of a KKT solve).
+    pub fn d_columns(&self) -> Vec<Vec<(usize, f64)>> {
+        let mut cols = vec![Vec::new(); self.n + 1];
+        for row in 0..self.n {
+            let (first, entries) = self.d_row(row);
+            for (j, &v) in entries.iter().enumerate() {
+                if v != 0.0 {
+                    cols[first + j].push((row, v));
+                }
+            }
+        }
+        cols
+    }
+
     /// Physical time of node `k` (`k ≤ n`): t_k = (τ_k + 1)·t_f/2.
     #[inline]
     pub fn time_s(&self, k: usize, tf_s: f64) -> f64 {

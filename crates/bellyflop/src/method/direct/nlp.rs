@@ -142,15 +142,7 @@ impl Nlp {
     pub fn new(s: &Scenario, sv: &SolverSettings) -> Self {
         let mesh = s.discretization.collocation_mesh();
         let n = mesh.n;
-        let mut d_cols = vec![Vec::new(); n + 1];
-        for row in 0..n {
-            let (first, entries) = mesh.d_row(row);
-            for (j, &v) in entries.iter().enumerate() {
-                if v != 0.0 {
-                    d_cols[first + j].push((row, v));
-                }
-            }
-        }
+        let d_cols = mesh.d_columns();
         let mut nlp = Nlp {
             model: Model::new(&s.vehicle, &s.environment),
             mesh,

@@ -237,7 +237,7 @@ mod tests {
     use super::*;
     use crate::input::scenario::Scenario;
     use crate::method::direct::kkt::Inertia;
-    use crate::method::direct::nlp::{Nlp, NL, NS};
+    use crate::method::direct::nlp::Nlp;
     use nalgebra::{DMatrix, DVector};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -246,7 +246,11 @@ mod tests {
     /// (AᵀA − I/2), or positive definite ones (AᵀA + I/2) when `definite`.
     /// x's rows of W are zero unless the problem has a cone (whose barrier
     /// terms couple x and z: then x is kept, not eliminated).
-    fn random_system(nlp: &Nlp, rng: &mut ChaCha8Rng, definite: bool) -> KktMatrix {
+    fn random_system<const NS: usize, const NL: usize>(
+        nlp: &impl Layout<NS, NL>,
+        rng: &mut ChaCha8Rng,
+        definite: bool,
+    ) -> KktMatrix<NS, NL> {
         let shift = if definite { -0.5 } else { 0.5 };
         let mut k = KktMatrix::zeros(nlp);
         for w in &mut k.w {
@@ -273,8 +277,8 @@ mod tests {
         // no t̂_f cross term, no other defect depends on it (x_N, when free,
         // keeps its Hessian: the soft terminal term's). With a cone, x's
         // rows of W carry its barrier terms.
-        let cone = !crate::method::direct::kkt::Layout::eliminates_x(nlp);
-        for node in 0..nlp.n {
+        let cone = !nlp.eliminates_x();
+        for node in 0..nlp.n() {
             if cone {
                 continue;
             }
@@ -345,64 +349,189 @@ mod tests {
             if path == ReducedPath::BunchKaufman {
                 solver.set_growth_max(0.0);
             }
-            let mut inertia = Inertia::default();
-            for k in 0..=nlp.n {
-                inertia = inertia + solver.factor_node(k, &kkt.w[k], 0.0);
-            }
-            inertia = inertia + solver.factor_reduced(&kkt);
-            assert_eq!(solver.reduced_path(), path, "{nodes}/{intervals}");
-            let (nv, nc) = (nlp.n_var(), nlp.n_con());
-            // Dense K over the free variables and the multipliers, column by column.
-            let free: Vec<usize> = (0..nv).filter(|&j| !nlp.is_fixed(j)).collect();
-            let dim = free.len() + nc;
-            let mut dense = DMatrix::zeros(dim, dim);
-            let (mut yw, mut yl) = (vec![0.0; nv], vec![0.0; nc]);
-            for col in 0..dim {
-                let (mut xw, mut xl) = (vec![0.0; nv], vec![0.0; nc]);
-                if col < free.len() {
-                    xw[free[col]] = 1.0;
-                } else {
-                    xl[col - free.len()] = 1.0;
-                }
-                kkt.multiply(&nlp, &xw, &xl, &mut yw, &mut yl);
-                for (r, &j) in free.iter().enumerate() {
-                    dense[(r, col)] = yw[j];
-                }
-                for r in 0..nc {
-                    dense[(free.len() + r, col)] = yl[r];
-                }
-            }
-            assert!(
-                (&dense - dense.transpose()).amax() < 1e-12,
-                "K is symmetric"
-            );
-            // The inertia agrees with the eigenvalues of the dense matrix.
-            let eig = dense.clone().symmetric_eigenvalues();
-            let want_inertia = Inertia {
-                positive: eig.iter().filter(|&&e| e > 0.0).count(),
-                negative: eig.iter().filter(|&&e| e < 0.0).count(),
-                zero: 0,
-            };
-            assert_eq!(inertia, want_inertia, "{nodes}/{intervals}");
-            let rhs = DVector::from_fn(dim, |_, _| rng.gen_range(-1.0..1.0));
-            let want = dense.clone().lu().solve(&rhs).unwrap();
-            let mut rw = vec![0.0; nv];
-            for (r, &j) in free.iter().enumerate() {
-                rw[j] = rhs[r];
-            }
-            let rl: Vec<f64> = (0..nc).map(|r| rhs[free.len() + r]).collect();
+            check_against_dense(&nlp, &kkt, &mut solver, &mut rng, path, (nodes, intervals));
+        }
+    }
+
+    /// Factor `kkt` with `solver`, and check the inertia against the
+    /// eigenvalues of the dense K and a solve against a dense LU solve.
+    fn check_against_dense<const NS: usize, const NL: usize>(
+        nlp: &impl Layout<NS, NL>,
+        kkt: &KktMatrix<NS, NL>,
+        solver: &mut KktSolver<NS, NL>,
+        rng: &mut ChaCha8Rng,
+        path: ReducedPath,
+        (nodes, intervals): (usize, usize),
+    ) {
+        let mut inertia = Inertia::default();
+        for k in 0..=nlp.n() {
+            inertia = inertia + solver.factor_node(k, &kkt.w[k], 0.0);
+        }
+        inertia = inertia + solver.factor_reduced(kkt);
+        assert_eq!(solver.reduced_path(), path, "{nodes}/{intervals}");
+        let (nv, nc) = (nlp.n_var(), nlp.n_con());
+        // Dense K over the free variables and the multipliers, column by column.
+        let free: Vec<usize> = (0..nv).filter(|&j| !nlp.is_fixed(j)).collect();
+        let dim = free.len() + nc;
+        let mut dense = DMatrix::zeros(dim, dim);
+        let (mut yw, mut yl) = (vec![0.0; nv], vec![0.0; nc]);
+        for col in 0..dim {
             let (mut xw, mut xl) = (vec![0.0; nv], vec![0.0; nc]);
-            solver.solve(&nlp, &kkt, &rw, &rl, &mut xw, &mut xl);
-            let scale = want.amax();
+            if col < free.len() {
+                xw[free[col]] = 1.0;
+            } else {
+                xl[col - free.len()] = 1.0;
+            }
+            kkt.multiply(nlp, &xw, &xl, &mut yw, &mut yl);
             for (r, &j) in free.iter().enumerate() {
-                assert!(
-                    (xw[j] - want[r]).abs() < 1e-8 * scale,
-                    "{nodes}/{intervals} w {j}"
-                );
+                dense[(r, col)] = yw[j];
             }
             for r in 0..nc {
-                assert!((xl[r] - want[free.len() + r]).abs() < 1e-8 * scale, "λ {r}");
+                dense[(free.len() + r, col)] = yl[r];
             }
+        }
+        assert!(
+            (&dense - dense.transpose()).amax() < 1e-12,
+            "K is symmetric"
+        );
+        // The inertia agrees with the eigenvalues of the dense matrix.
+        let eig = dense.clone().symmetric_eigenvalues();
+        let want_inertia = Inertia {
+            positive: eig.iter().filter(|&&e| e > 0.0).count(),
+            negative: eig.iter().filter(|&&e| e < 0.0).count(),
+            zero: 0,
+        };
+        assert_eq!(inertia, want_inertia, "{nodes}/{intervals}");
+        let rhs = DVector::from_fn(dim, |_, _| rng.gen_range(-1.0..1.0));
+        let want = dense.clone().lu().solve(&rhs).unwrap();
+        let mut rw = vec![0.0; nv];
+        for (r, &j) in free.iter().enumerate() {
+            rw[j] = rhs[r];
+        }
+        let rl: Vec<f64> = (0..nc).map(|r| rhs[free.len() + r]).collect();
+        let (mut xw, mut xl) = (vec![0.0; nv], vec![0.0; nc]);
+        solver.solve(nlp, kkt, &rw, &rl, &mut xw, &mut xl);
+        let scale = want.amax();
+        for (r, &j) in free.iter().enumerate() {
+            assert!(
+                (xw[j] - want[r]).abs() < 1e-8 * scale,
+                "{nodes}/{intervals} w {j}"
+            );
+        }
+        for r in 0..nc {
+            assert!((xl[r] - want[free.len() + r]).abs() < 1e-8 * scale, "λ {r}");
+        }
+    }
+
+    const NS6: usize = crate::problem::six_dof::NX;
+    /// The 6-DoF node: 16 states, 3 controls and two thrust slacks.
+    const NL6: usize = NS6 + crate::problem::six_dof::NU + 2;
+
+    /// The 6-DoF transcription's shape (issue 38), for the solve alone:
+    /// node 0's states fixed, node N's controls and the landing's fixed
+    /// slots (the model's own, through the seam) fixed, the slacks fixed.
+    struct SixDofShape {
+        mesh: crate::collocation::mesh::Mesh,
+        d_cols: Vec<Vec<(usize, f64)>>,
+        fixed: Vec<bool>,
+        eliminate: bool,
+    }
+
+    impl SixDofShape {
+        fn new(nodes: usize, intervals: usize, eliminate: bool) -> Self {
+            use crate::problem::model::Dynamics;
+            let mesh = crate::collocation::mesh::Mesh::uniform(nodes, intervals);
+            let n = mesh.n;
+            let d_cols = mesh.d_columns();
+            let s = Scenario::paper();
+            let model = crate::problem::six_dof::SixDof::new(&s.vehicle, &s.environment);
+            let mut fixed = vec![false; (n + 1) * NL6 + 1];
+            for k in 0..=n {
+                for slot in 0..NL6 {
+                    // The landing fixes all of node N's controls and the
+                    // model's landing slots of its states.
+                    let landing = slot >= NS6 || model.terminal_fixed(&s.terminal, slot).is_some();
+                    fixed[k * NL6 + slot] =
+                        (k == 0 && slot < NS6) || (k == n && landing) || slot >= NL6 - 2;
+                }
+            }
+            SixDofShape {
+                mesh,
+                d_cols,
+                fixed,
+                eliminate,
+            }
+        }
+    }
+
+    impl Layout<NS6, NL6> for SixDofShape {
+        fn n(&self) -> usize {
+            self.mesh.n
+        }
+        fn idx(&self, k: usize, s: usize) -> usize {
+            k * NL6 + s
+        }
+        fn tf_idx(&self) -> usize {
+            (self.mesh.n + 1) * NL6
+        }
+        fn n_var(&self) -> usize {
+            self.tf_idx() + 1
+        }
+        fn n_con(&self) -> usize {
+            self.mesh.n * NS6
+        }
+        fn is_fixed(&self, j: usize) -> bool {
+            self.fixed[j]
+        }
+        fn mesh(&self) -> &crate::collocation::mesh::Mesh {
+            &self.mesh
+        }
+        fn d_cols(&self) -> &[Vec<(usize, f64)>] {
+            &self.d_cols
+        }
+        fn eliminates_x(&self) -> bool {
+            self.eliminate
+        }
+    }
+
+    /// The same structured solve at the 6-DoF model's sizes (16 states with
+    /// defects, 21 slots per node, 8 landing slots fixed): it equals a
+    /// dense solve and counts the inertia on the global mesh (both dense
+    /// factorizations of R) and on hp meshes (banded and Bunch–Kaufman),
+    /// with x eliminated and kept.
+    #[test]
+    fn structured_solve_matches_a_dense_solve_at_six_dof_sizes() {
+        let mut rng = ChaCha8Rng::seed_from_u64(38);
+        let cases = [
+            (6, 1, false, true),
+            (6, 1, true, false),
+            (20, 1, false, true),
+            (9, 3, false, true),
+            (9, 3, true, false),
+            (12, 4, false, false),
+        ];
+        for ((nodes, intervals, definite, eliminate), path) in cases.into_iter().flat_map(|c| {
+            let first = if c.1 > 1 {
+                ReducedPath::Banded
+            } else {
+                ReducedPath::Unpivoted
+            };
+            [(c, first), (c, ReducedPath::BunchKaufman)]
+        }) {
+            let shape = SixDofShape::new(nodes, intervals, eliminate);
+            let kkt = random_system(&shape, &mut rng, definite);
+            let mut solver = KktSolver::new(&shape);
+            if path == ReducedPath::BunchKaufman {
+                solver.set_growth_max(0.0);
+            }
+            check_against_dense(
+                &shape,
+                &kkt,
+                &mut solver,
+                &mut rng,
+                path,
+                (nodes, intervals),
+            );
         }
     }
 }
