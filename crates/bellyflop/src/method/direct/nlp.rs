@@ -99,6 +99,9 @@ pub struct Nlp {
     /// The constant Jacobian entries of the inputs that enter f linearly
     /// (θ̇ = w, δ̇ = χ): [`derivatives::linear_columns`].
     linear: Vec<(usize, usize, f64)>,
+    /// The value of each state that the landing fixes, from the model
+    /// ([`Dynamics::terminal_fixed`]).
+    terminal: [Option<f64>; NS],
 }
 
 /// The soft constraints of [`crate::input::settings::SolverSettings`], as exact
@@ -159,6 +162,7 @@ impl Nlp {
             max_pitch_rate_radps: None,
             limits: Vec::new(),
             linear: Vec::with_capacity(NL),
+            terminal: [None; NS],
         };
         nlp.refresh(s, sv);
         nlp
@@ -191,6 +195,7 @@ impl Nlp {
         self.tf_scale = sc.tf_scale;
         self.x0 = i.state_si();
         self.xf = t.state_si();
+        self.terminal = std::array::from_fn(|c| self.model.terminal_fixed(t, c));
         self.soft = SoftTerms::default();
         let (t_min, t_max) = (self.model.min_thrust_n, self.model.max_thrust_n);
         if sv.thrust_margin_frac > 0.0 {
@@ -253,6 +258,11 @@ impl Nlp {
         self.offset[s] + self.scale[s] * w
     }
 
+    /// The bounds of every node, from the model's boxes and landing slots
+    /// through the seam ([`Dynamics`]): x_0 fixed; after it the state boxes,
+    /// with the ground z ≥ z_f and the mass at most m_0 (and the pitch-rate
+    /// limit); at node N the landing's fixed slots; at the points the
+    /// control boxes (the thrust in the soft margin's band, when on).
     fn set_bounds(&mut self, z_ground_m: f64) {
         let nv = self.n_var();
         // Refilled in place: no allocation once the vectors have their size.
@@ -273,30 +283,27 @@ impl Nlp {
                     set(&mut lo, &mut hi, k, s, self.x0[s], self.x0[s]);
                 }
             } else {
-                set(&mut lo, &mut hi, k, slot::Z, z_ground_m, f64::INFINITY);
-                set(
-                    &mut lo,
-                    &mut hi,
-                    k,
-                    slot::M,
-                    m.dry_mass_kg,
-                    self.x0[slot::M],
-                );
-                set(
-                    &mut lo,
-                    &mut hi,
-                    k,
-                    slot::DELTA,
-                    -m.max_gimbal_rad,
-                    m.max_gimbal_rad,
-                );
+                for s in 0..NS {
+                    let (mut a, mut b) = m.state_box(s);
+                    if s == Model::ALTITUDE {
+                        a = a.max(z_ground_m);
+                    }
+                    if s == Model::MASS {
+                        b = b.min(self.x0[s]);
+                    }
+                    if a.is_finite() || b.is_finite() {
+                        set(&mut lo, &mut hi, k, s, a, b);
+                    }
+                }
                 if let Some(w) = self.max_pitch_rate_radps {
                     set(&mut lo, &mut hi, k, slot::W, -w, w);
                 }
             }
             if k == n {
-                for s in 0..6 {
-                    set(&mut lo, &mut hi, k, s, self.xf[s], self.xf[s]);
+                for (s, v) in self.terminal.iter().enumerate() {
+                    if let Some(v) = *v {
+                        set(&mut lo, &mut hi, k, s, v, v);
+                    }
                 }
                 if self.soft.lateral_weight > 0.0 {
                     for s in [slot::X, slot::VX] {
@@ -307,20 +314,22 @@ impl Nlp {
                 for s in NS..NL {
                     set(&mut lo, &mut hi, k, s, 0.0, 0.0);
                 }
-            } else if self.soft.margin_weight > 0.0 {
+                continue;
+            }
+            for j in 0..Model::NU {
+                let (a, b) = m.control_box(j);
+                set(&mut lo, &mut hi, k, NS + j, a, b);
+            }
+            let (t_min, t_max) = m.control_box(Model::THRUST);
+            let (above, below) = if self.soft.margin_weight > 0.0 {
                 let (t_lo, t_hi) = self.soft.margin_band_n;
                 set(&mut lo, &mut hi, k, slot::T, t_lo, t_hi);
-                set(&mut lo, &mut hi, k, slot::ABOVE, 0.0, m.max_thrust_n - t_hi);
-                set(&mut lo, &mut hi, k, slot::BELOW, 0.0, t_lo - m.min_thrust_n);
+                (t_max - t_hi, t_lo - t_min)
             } else {
-                set(&mut lo, &mut hi, k, slot::T, m.min_thrust_n, m.max_thrust_n);
-                set(&mut lo, &mut hi, k, slot::ABOVE, 0.0, 0.0);
-                set(&mut lo, &mut hi, k, slot::BELOW, 0.0, 0.0);
-            }
-            if k < n {
-                let c = m.max_gimbal_rate_radps;
-                set(&mut lo, &mut hi, k, slot::CHI, -c, c);
-            }
+                (0.0, 0.0)
+            };
+            set(&mut lo, &mut hi, k, slot::ABOVE, 0.0, above);
+            set(&mut lo, &mut hi, k, slot::BELOW, 0.0, below);
         }
         let tf = self.tf_idx();
         lo[tf] = TF_BOUNDS_S.0 / self.tf_scale;
