@@ -23,7 +23,7 @@
 use crate::collocation::derivatives;
 use crate::collocation::mesh::Mesh;
 use crate::collocation::scaling::Scaling;
-use crate::input::scenario::Scenario;
+use crate::input::scenario::{Scenario, TerminalState};
 use crate::input::settings::{Formulation, SolverSettings};
 use crate::problem::constraints::Limit;
 use crate::problem::dynamics::Model;
@@ -99,9 +99,6 @@ pub struct Nlp {
     /// The constant Jacobian entries of the inputs that enter f linearly
     /// (θ̇ = w, δ̇ = χ): [`derivatives::linear_columns`].
     linear: Vec<(usize, usize, f64)>,
-    /// The value of each state that the landing fixes, from the model
-    /// ([`Dynamics::terminal_fixed`]).
-    terminal: [Option<f64>; NS],
 }
 
 /// The soft constraints of [`crate::input::settings::SolverSettings`], as exact
@@ -162,7 +159,6 @@ impl Nlp {
             max_pitch_rate_radps: None,
             limits: Vec::new(),
             linear: Vec::with_capacity(NL),
-            terminal: [None; NS],
         };
         nlp.refresh(s, sv);
         nlp
@@ -195,7 +191,6 @@ impl Nlp {
         self.tf_scale = sc.tf_scale;
         self.x0 = i.state_si();
         self.xf = t.state_si();
-        self.terminal = std::array::from_fn(|c| self.model.terminal_fixed(t, c));
         self.soft = SoftTerms::default();
         let (t_min, t_max) = (self.model.min_thrust_n, self.model.max_thrust_n);
         if sv.thrust_margin_frac > 0.0 {
@@ -221,7 +216,7 @@ impl Nlp {
             crate::problem::constraints::each_row(s)
                 .filter(|r| matches!(r.limit, Limit::Cone | Limit::Tilt | Limit::FinalDescent)),
         );
-        self.set_bounds(t.z_m);
+        self.set_bounds(t);
     }
 
     /// Index of slot `s` of node `k` in the full vector.
@@ -261,9 +256,10 @@ impl Nlp {
     /// The bounds of every node, from the model's boxes and landing slots
     /// through the seam ([`Dynamics`]): x_0 fixed; after it the state boxes,
     /// with the ground z ≥ z_f and the mass at most m_0 (and the pitch-rate
-    /// limit); at node N the landing's fixed slots; at the points the
-    /// control boxes (the thrust in the soft margin's band, when on).
-    fn set_bounds(&mut self, z_ground_m: f64) {
+    /// limit); at node N the landing's fixed slots (`target`, the ground
+    /// at its altitude); at the points the control boxes (the thrust in the
+    /// soft margin's band, when on).
+    fn set_bounds(&mut self, target: &TerminalState) {
         let nv = self.n_var();
         // Refilled in place: no allocation once the vectors have their size.
         let (mut lo, mut hi) = (std::mem::take(&mut self.lo), std::mem::take(&mut self.hi));
@@ -286,7 +282,7 @@ impl Nlp {
                 for s in 0..NS {
                     let (mut a, mut b) = m.state_box(s);
                     if s == Model::ALTITUDE {
-                        a = a.max(z_ground_m);
+                        a = a.max(target.z_m);
                     }
                     if s == Model::MASS {
                         b = b.min(self.x0[s]);
@@ -300,8 +296,8 @@ impl Nlp {
                 }
             }
             if k == n {
-                for (s, v) in self.terminal.iter().enumerate() {
-                    if let Some(v) = *v {
+                for s in 0..NS {
+                    if let Some(v) = m.terminal_fixed(target, s) {
                         set(&mut lo, &mut hi, k, s, v, v);
                     }
                 }
