@@ -119,6 +119,145 @@ pub fn point_derivatives<M: Dynamics, const NS: usize, const NL: usize, const NA
     out
 }
 
+/// One path row g ≤ 0 of a model at one point, scaled: ĝ (the model's rows
+/// are of order one already), ∂ĝ/∂ŵ over the local slots, and the nonzero
+/// entries (r, s, ∂²ĝ/∂ŵ_r∂ŵ_s) of its Hessian, both triangles.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RowDerivatives<const NL: usize> {
+    pub value: f64,
+    pub grad: [f64; NL],
+    pub hess: Vec<(usize, usize, f64)>,
+}
+
+impl<const NL: usize> Default for RowDerivatives<NL> {
+    fn default() -> Self {
+        RowDerivatives {
+            value: 0.0,
+            grad: [0.0; NL],
+            hess: Vec::new(),
+        }
+    }
+}
+
+/// The most path rows a model may have.
+pub const MAX_PATH_ROWS: usize = 8;
+
+/// The model's path rows ([`Dynamics::path_rows`]) and their scaled
+/// derivatives at the physical point `p`, over second-order duals in the
+/// union of the rows' inputs (NP of them), into `out` (PATH_ROWS entries;
+/// each Hessian list is refilled in place).
+pub fn path_row_derivatives<M: Dynamics, const NL: usize, const NP: usize>(
+    model: &M,
+    p: &[f64; NL],
+    scale: &[f64; NL],
+    out: &mut [RowDerivatives<NL>],
+) {
+    let mut inputs = [0usize; NP];
+    let mut count = 0;
+    for &s in M::PATH_ROW_INPUTS.iter().flat_map(|r| r.iter()) {
+        if !inputs[..count].contains(&s) {
+            inputs[count] = s;
+            count += 1;
+        }
+    }
+    assert_eq!(count, NP, "NP is the number of the path rows' inputs");
+    let v: [Dual2SVec64<NP>; NL] =
+        std::array::from_fn(|s| match inputs.iter().position(|&a| a == s) {
+            Some(a) => Dual2SVec64::from_re(p[s]).derivative(a),
+            None => Dual2SVec64::from_re(p[s]),
+        });
+    let (nx, nu) = (M::NX, M::NU);
+    // On the stack, so that an iteration allocates nothing.
+    let mut g = [Dual2SVec64::<NP>::from_re(0.0); MAX_PATH_ROWS];
+    let g = &mut g[..M::PATH_ROWS];
+    model.path_rows(&v[..nx], &v[nx..nx + nu], g);
+    for (row, gr) in out.iter_mut().zip(g.iter()) {
+        row.value = gr.re;
+        row.grad = [0.0; NL];
+        row.hess.clear();
+        if let Some(d) = &gr.v1.0 {
+            for (a, &s) in inputs.iter().enumerate() {
+                row.grad[s] = d[a] * scale[s];
+            }
+        }
+        if let Some(h) = &gr.v2.0 {
+            for (a, &s) in inputs.iter().enumerate() {
+                for (b, &r) in inputs.iter().enumerate() {
+                    let v = 0.5 * (h[(a, b)] + h[(b, a)]) * scale[s] * scale[r];
+                    if v != 0.0 {
+                        row.hess.push((s, r, v));
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A model whose transcription the direct method differentiates: the
+/// generic helpers above at the model's own counts of nonlinear inputs and
+/// path-row inputs (stable Rust cannot size the dual numbers from an
+/// associated constant, so each model names them once here).
+pub trait Differentiable: Dynamics {
+    /// [`point_derivatives`] at the model's count of nonlinear inputs.
+    fn point_derivatives<const NS: usize, const NL: usize>(
+        &self,
+        p: &[f64; NL],
+        scale: &[f64; NL],
+        lambda: &[f64],
+        linear: &[(usize, usize, f64)],
+    ) -> PointDerivatives<NS, NL>;
+
+    /// [`path_row_derivatives`] at the model's count of path-row inputs.
+    fn path_row_derivatives<const NL: usize>(
+        &self,
+        p: &[f64; NL],
+        scale: &[f64; NL],
+        out: &mut [RowDerivatives<NL>],
+    );
+}
+
+impl Differentiable for crate::problem::dynamics::Model {
+    fn point_derivatives<const NS: usize, const NL: usize>(
+        &self,
+        p: &[f64; NL],
+        scale: &[f64; NL],
+        lambda: &[f64],
+        linear: &[(usize, usize, f64)],
+    ) -> PointDerivatives<NS, NL> {
+        point_derivatives::<Self, NS, NL, 6>(self, p, scale, lambda, linear)
+    }
+
+    /// No path rows in the plane (the gimbal's bounds are boxes).
+    fn path_row_derivatives<const NL: usize>(
+        &self,
+        _: &[f64; NL],
+        _: &[f64; NL],
+        _: &mut [RowDerivatives<NL>],
+    ) {
+    }
+}
+
+impl Differentiable for crate::problem::six_dof::SixDof {
+    fn point_derivatives<const NS: usize, const NL: usize>(
+        &self,
+        p: &[f64; NL],
+        scale: &[f64; NL],
+        lambda: &[f64],
+        linear: &[(usize, usize, f64)],
+    ) -> PointDerivatives<NS, NL> {
+        point_derivatives::<Self, NS, NL, 14>(self, p, scale, lambda, linear)
+    }
+
+    fn path_row_derivatives<const NL: usize>(
+        &self,
+        p: &[f64; NL],
+        scale: &[f64; NL],
+        out: &mut [RowDerivatives<NL>],
+    ) {
+        path_row_derivatives::<Self, NL, 4>(self, p, scale, out)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -76,6 +76,12 @@ pub trait Dynamics {
     const THRUST: usize;
     /// Number of path rows g(x, u) ≤ 0 beyond the boxes.
     const PATH_ROWS: usize;
+    /// The inputs of (x, u) that each path row depends on (PATH_ROWS
+    /// lists), so that a transcription holds a row at a node only where one
+    /// of them is free. Every path row is convex, and holds strictly at
+    /// zero inputs (g < 0 there): a start is brought inside a row by
+    /// scaling its inputs toward zero.
+    const PATH_ROW_INPUTS: &'static [&'static [usize]];
 
     /// ẋ = f(x, u) into `dx` (x: NX, u: NU, dx: NX).
     fn rhs<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], u: &[D], dx: &mut [D]);
@@ -160,6 +166,7 @@ impl Dynamics for Model {
     const MASS: usize = ix::M;
     const THRUST: usize = 0;
     const PATH_ROWS: usize = 0;
+    const PATH_ROW_INPUTS: &'static [&'static [usize]] = &[];
 
     fn rhs<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], u: &[D], dx: &mut [D]) {
         let s: [D; 8] = std::array::from_fn(|i| x[i]);
@@ -263,6 +270,10 @@ impl Dynamics for SixDof {
     const MASS: usize = sx::M;
     const THRUST: usize = su::T;
     const PATH_ROWS: usize = 2;
+    const PATH_ROW_INPUTS: &'static [&'static [usize]] = &[
+        &[sx::DELTA, sx::DELTA + 1],
+        &[six_dof::NX + su::CHI, six_dof::NX + su::CHI + 1],
+    ];
 
     fn rhs<D: DualNum<Primitive = f64> + Copy>(&self, x: &[D], u: &[D], dx: &mut [D]) {
         let s: [D; six_dof::NX] = std::array::from_fn(|i| x[i]);

@@ -28,7 +28,7 @@ fn checks_with(nlp: &Nlp, w: &[f64], c: &mut [f64]) -> crate::solution::Checks {
         let t = nlp.thrust_n(w, i);
         bound = bound.max(m.min_thrust_n - t).max(t - m.max_thrust_n);
     }
-    let z_f = nlp.xf[slot::Z];
+    let z_f = nlp.target.z_m;
     let min_altitude_margin_m = (0..=nlp.n)
         .map(|k| nlp.physical(slot::Z, w[nlp.idx(k, slot::Z)]) - z_f)
         .fold(f64::INFINITY, f64::min);

@@ -17,17 +17,24 @@
 //! Derivatives are exact: num-dual's second-order dual numbers over the six
 //! inputs that enter f nonlinearly (Vx, Vz, θ, m, δ, T); the linear entries
 //! θ̇ = w and δ̇ = χ are added by hand.
+//!
+//! The transcription is generic over the model behind the seam
+//! ([`Transcription`], issue 38): its layout (NS states, then the model's
+//! controls, then the two thrust slacks, NL slots per node), scaling,
+//! bounds, objective, defects and their derivatives hold for any
+//! [`Dynamics`](crate::problem::model::Dynamics). [`Nlp`] is the planar P2 one, and keeps what is planar:
+//! its construction from a scenario, the operational limits of issue 37,
+//! and the conversions to and from the LCvx trajectories and solutions.
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
-use crate::collocation::derivatives;
+use crate::collocation::derivatives::{self, Differentiable};
 use crate::collocation::mesh::Mesh;
 use crate::collocation::scaling::Scaling;
 use crate::input::scenario::{Scenario, TerminalState};
 use crate::input::settings::{Formulation, SolverSettings};
 use crate::problem::constraints::Limit;
 use crate::problem::dynamics::Model;
-use crate::problem::model::Dynamics;
 
 /// States of P2 at a node: x, z, Vx, Vz, θ, w, m, δ.
 pub const NS: usize = 8;
@@ -49,10 +56,6 @@ pub mod slot {
     pub const BELOW: usize = 11;
 }
 
-/// Number of the model's inputs that enter f nonlinearly (Vx, Vz, θ, m, δ,
-/// T: [`Dynamics::NONLINEAR`]), the directions of the dual numbers.
-const NA: usize = 6;
-
 /// Bounds on t_f \[s\], as in the IPOPT reference.
 pub const TF_BOUNDS_S: (f64, f64) = (1.0, 100.0);
 
@@ -66,13 +69,19 @@ pub struct Duals {
 }
 
 /// Derivatives of the dynamics at one collocation point, in scaled units
-/// (the thrust slacks' columns filled by [`Nlp::point_derivatives`]).
-pub type PointDerivatives = derivatives::PointDerivatives<NS, NL>;
+/// (the thrust slacks' columns filled by [`Transcription::point_derivatives`]).
+pub type PointDerivatives<const NS: usize = 8, const NL: usize = 12> =
+    derivatives::PointDerivatives<NS, NL>;
 
-/// P2 on a mesh: scaling, bounds, defects and their derivatives.
+/// P2 on a mesh, the planar transcription.
+pub type Nlp = Transcription<Model, NS, NL>;
+
+/// A model's problem on a mesh: scaling, bounds, defects and their
+/// derivatives (module docs). NS is the model's state count and NL = NS +
+/// its control count + 2 (the thrust slacks).
 #[derive(Debug, Clone)]
-pub struct Nlp {
-    pub model: Model,
+pub struct Transcription<M, const NS: usize, const NL: usize> {
+    pub model: M,
     pub mesh: Mesh,
     /// Collocation points N.
     pub n: usize,
@@ -83,16 +92,18 @@ pub struct Nlp {
     /// Scaled bounds of the full vector (±∞ where free; equal where fixed).
     pub lo: Vec<f64>,
     pub hi: Vec<f64>,
-    /// Initial state (all of P2's) and terminal x, z, Vx, Vz, θ, w, physical.
+    /// Initial state (all of the model's), physical, and the landing
+    /// ([`Dynamics::terminal_fixed`](crate::problem::model::Dynamics::terminal_fixed) reads its fixed slots from it).
     pub x0: [f64; NS],
-    pub xf: [f64; 6],
+    pub target: TerminalState,
     /// For each node k: the collocation points i with D_ik ≠ 0 and D_ik.
     pub d_cols: Vec<Vec<(usize, f64)>>,
     /// Soft constraints of closed-loop plans, in the objective.
     pub soft: SoftTerms,
-    /// The pitch-rate limit w_max [rad/s] of the scenario's constraints
-    /// (issue 37): a simple bound |w| ≤ w_max at every free node.
-    pub max_pitch_rate_radps: Option<f64>,
+    /// A symmetric bound |v_s| ≤ b on one state slot s at every free node:
+    /// (w, w_max \[rad/s\]) for the pitch-rate limit of the scenario's
+    /// constraints (issue 37).
+    pub rate_bound: Option<(usize, f64)>,
     /// The operational rows held at the free nodes (the tilt limit and the
     /// final descent, in the direct method's `rows` module).
     pub limits: Vec<crate::problem::constraints::Row>,
@@ -123,6 +134,8 @@ pub struct SoftTerms {
     pub lateral_weight: f64,
     /// x̂_f and V̂x_f.
     pub lateral_target: (f64, f64),
+    /// The slots of x and Vx.
+    pub lateral_slots: (usize, usize),
 }
 
 /// Smoothing ε of the soft terminal x and Vx (scaled units: 1e-3 of the
@@ -140,26 +153,11 @@ impl Nlp {
     /// The transcription of a validated scenario on its mesh, with the
     /// ground bound z ≥ z_f at every node and the soft terms of `sv`.
     pub fn new(s: &Scenario, sv: &SolverSettings) -> Self {
-        let mesh = s.discretization.collocation_mesh();
-        let n = mesh.n;
-        let d_cols = mesh.d_columns();
-        let mut nlp = Nlp {
-            model: Model::new(&s.vehicle, &s.environment),
-            mesh,
-            n,
-            offset: [0.0; NL],
-            scale: [1.0; NL],
-            tf_scale: 1.0,
-            lo: vec![],
-            hi: vec![],
-            x0: [0.0; NS],
-            xf: [0.0; 6],
-            d_cols,
-            soft: SoftTerms::default(),
-            max_pitch_rate_radps: None,
-            limits: Vec::new(),
-            linear: Vec::with_capacity(NL),
-        };
+        let mut nlp = Transcription::empty(
+            Model::new(&s.vehicle, &s.environment),
+            s.discretization.collocation_mesh(),
+            s.terminal.clone(),
+        );
         nlp.refresh(s, sv);
         nlp
     }
@@ -190,7 +188,7 @@ impl Nlp {
         self.scale = scale;
         self.tf_scale = sc.tf_scale;
         self.x0 = i.state_si();
-        self.xf = t.state_si();
+        self.target.clone_from(t);
         self.soft = SoftTerms::default();
         let (t_min, t_max) = (self.model.min_thrust_n, self.model.max_thrust_n);
         if sv.thrust_margin_frac > 0.0 {
@@ -202,13 +200,14 @@ impl Nlp {
         }
         if sv.terminal_lateral_weight > 0.0 {
             self.soft.lateral_weight = sv.terminal_lateral_weight;
-            let xf = self.xf;
-            self.soft.lateral_target = (
-                self.scaled(slot::X, xf[slot::X]),
-                self.scaled(slot::VX, xf[slot::VX]),
-            );
+            self.soft.lateral_target =
+                (self.scaled(slot::X, t.x_m), self.scaled(slot::VX, t.vx_mps));
+            self.soft.lateral_slots = (slot::X, slot::VX);
         }
-        self.max_pitch_rate_radps = s.constraints.max_pitch_rate_degps.map(f64::to_radians);
+        self.rate_bound = s
+            .constraints
+            .max_pitch_rate_degps
+            .map(|w| (slot::W, w.to_radians()));
         // The rows it holds at its nodes ([`crate::method::direct::rows`]).
         // In place: a re-plan's update allocates nothing (issue 27).
         self.limits.clear();
@@ -217,6 +216,57 @@ impl Nlp {
                 .filter(|r| matches!(r.limit, Limit::Cone | Limit::Tilt | Limit::FinalDescent)),
         );
         self.set_bounds(t);
+    }
+}
+
+impl<M: Differentiable + Clone, const NS: usize, const NL: usize> Transcription<M, NS, NL> {
+    /// The thrust slot: the model's thrust control.
+    pub const T: usize = NS + M::THRUST;
+    /// The thrust slacks, after the model's controls ([`SoftTerms`]).
+    pub const ABOVE: usize = NS + M::NU;
+    pub const BELOW: usize = NS + M::NU + 1;
+
+    /// A transcription of `model` on `mesh`, its scaling, start and bounds
+    /// yet to be set (by the model's own constructor).
+    pub fn empty(model: M, mesh: Mesh, target: TerminalState) -> Self {
+        const { assert!(NS == M::NX && NL == M::NX + M::NU + 2) };
+        let n = mesh.n;
+        let d_cols = mesh.d_columns();
+        Transcription {
+            model,
+            mesh,
+            n,
+            offset: [0.0; NL],
+            scale: [1.0; NL],
+            tf_scale: 1.0,
+            lo: vec![],
+            hi: vec![],
+            x0: [0.0; NS],
+            target,
+            d_cols,
+            soft: SoftTerms::default(),
+            rate_bound: None,
+            limits: Vec::new(),
+            linear: Vec::with_capacity(NL),
+        }
+    }
+
+    /// Set the scaling (value = offset + scale·ŵ per slot, t_f = tf_scale·t̂_f),
+    /// the start `x0` and the landing, and the bounds from them: how a
+    /// model's own constructor finishes a transcription.
+    pub fn set_problem(
+        &mut self,
+        (offset, scale, tf_scale): ([f64; NL], [f64; NL], f64),
+        x0: [f64; NS],
+        target: &TerminalState,
+    ) {
+        derivatives::linear_columns(&self.model, &offset, &mut self.linear);
+        self.offset = offset;
+        self.scale = scale;
+        self.tf_scale = tf_scale;
+        self.x0 = x0;
+        self.target.clone_from(target);
+        self.set_bounds(target);
     }
 
     /// Index of slot `s` of node `k` in the full vector.
@@ -237,7 +287,7 @@ impl Nlp {
         self.tf_idx() + 1
     }
 
-    /// Number of equality constraints (defects), N·8.
+    /// Number of equality constraints (defects), N·NS.
     #[inline]
     pub fn n_con(&self) -> usize {
         self.n * NS
@@ -254,12 +304,12 @@ impl Nlp {
     }
 
     /// The bounds of every node, from the model's boxes and landing slots
-    /// through the seam ([`Dynamics`]): x_0 fixed; after it the state boxes,
+    /// through the seam ([`Dynamics`](crate::problem::model::Dynamics)): x_0 fixed; after it the state boxes,
     /// with the ground z ≥ z_f and the mass at most m_0 (and the pitch-rate
     /// limit); at node N the landing's fixed slots (`target`, the ground
     /// at its altitude); at the points the control boxes (the thrust in the
     /// soft margin's band, when on).
-    fn set_bounds(&mut self, target: &TerminalState) {
+    pub(crate) fn set_bounds(&mut self, target: &TerminalState) {
         let nv = self.n_var();
         // Refilled in place: no allocation once the vectors have their size.
         let (mut lo, mut hi) = (std::mem::take(&mut self.lo), std::mem::take(&mut self.hi));
@@ -281,18 +331,18 @@ impl Nlp {
             } else {
                 for s in 0..NS {
                     let (mut a, mut b) = m.state_box(s);
-                    if s == Model::ALTITUDE {
+                    if s == M::ALTITUDE {
                         a = a.max(target.z_m);
                     }
-                    if s == Model::MASS {
+                    if s == M::MASS {
                         b = b.min(self.x0[s]);
                     }
                     if a.is_finite() || b.is_finite() {
                         set(&mut lo, &mut hi, k, s, a, b);
                     }
                 }
-                if let Some(w) = self.max_pitch_rate_radps {
-                    set(&mut lo, &mut hi, k, slot::W, -w, w);
+                if let Some((s, b)) = self.rate_bound {
+                    set(&mut lo, &mut hi, k, s, -b, b);
                 }
             }
             if k == n {
@@ -302,7 +352,8 @@ impl Nlp {
                     }
                 }
                 if self.soft.lateral_weight > 0.0 {
-                    for s in [slot::X, slot::VX] {
+                    let (x, vx) = self.soft.lateral_slots;
+                    for s in [x, vx] {
                         lo[k * NL + s] = f64::NEG_INFINITY;
                         hi[k * NL + s] = f64::INFINITY;
                     }
@@ -312,20 +363,20 @@ impl Nlp {
                 }
                 continue;
             }
-            for j in 0..Model::NU {
+            for j in 0..M::NU {
                 let (a, b) = m.control_box(j);
                 set(&mut lo, &mut hi, k, NS + j, a, b);
             }
-            let (t_min, t_max) = m.control_box(Model::THRUST);
+            let (t_min, t_max) = m.control_box(M::THRUST);
             let (above, below) = if self.soft.margin_weight > 0.0 {
                 let (t_lo, t_hi) = self.soft.margin_band_n;
-                set(&mut lo, &mut hi, k, slot::T, t_lo, t_hi);
+                set(&mut lo, &mut hi, k, Self::T, t_lo, t_hi);
                 (t_max - t_hi, t_lo - t_min)
             } else {
                 (0.0, 0.0)
             };
-            set(&mut lo, &mut hi, k, slot::ABOVE, 0.0, above);
-            set(&mut lo, &mut hi, k, slot::BELOW, 0.0, below);
+            set(&mut lo, &mut hi, k, Self::ABOVE, 0.0, above);
+            set(&mut lo, &mut hi, k, Self::BELOW, 0.0, below);
         }
         let tf = self.tf_idx();
         lo[tf] = TF_BOUNDS_S.0 / self.tf_scale;
@@ -340,35 +391,6 @@ impl Nlp {
         self.lo[j] == self.hi[j]
     }
 
-    /// The straight-line guess of the reference: states linear in τ from the
-    /// initial to the terminal state (mass to `final_mass_kg`, δ to 0),
-    /// T = (T_min + T_max)/2, χ = 0, t_f = `tf_s`. Scaled.
-    pub fn straight_line(&self, tf_s: f64, final_mass_kg: f64) -> Vec<f64> {
-        let mut w = Vec::new();
-        self.straight_line_into(tf_s, final_mass_kg, &mut w);
-        w
-    }
-
-    /// [`Self::straight_line`] into `w`, in its own storage.
-    pub fn straight_line_into(&self, tf_s: f64, final_mass_kg: f64, w: &mut Vec<f64>) {
-        w.clear();
-        w.resize(self.n_var(), 0.0);
-        let mut end = [0.0; NS];
-        end[..6].copy_from_slice(&self.xf);
-        end[slot::M] = final_mass_kg;
-        let thrust = 0.5 * (self.model.min_thrust_n + self.model.max_thrust_n);
-        for (k, &tau) in self.mesh.nodes.iter().enumerate() {
-            let a = 0.5 * (tau + 1.0);
-            for s in 0..NS {
-                w[self.idx(k, s)] = self.scaled(s, self.x0[s] + a * (end[s] - self.x0[s]));
-            }
-            if k < self.n {
-                w[self.idx(k, slot::T)] = self.scaled(slot::T, thrust);
-            }
-        }
-        w[self.tf_idx()] = tf_s / self.tf_scale;
-    }
-
     /// Physical t_f \[s\] of a scaled vector.
     #[inline]
     pub fn tf_s(&self, w: &[f64]) -> f64 {
@@ -378,7 +400,7 @@ impl Nlp {
     /// Objective −ŵ_m(t_f) (maximize the final mass, Eq. 6) plus the soft
     /// terms ([`SoftTerms`]).
     pub fn objective(&self, w: &[f64]) -> f64 {
-        let mut f = -w[self.idx(self.n, slot::M)];
+        let mut f = -w[self.idx(self.n, M::MASS)];
         self.for_each_soft_term(w, |_, (v, _, _)| f += v);
         f
     }
@@ -386,7 +408,7 @@ impl Nlp {
     /// ∇f into `g` (overwritten).
     pub fn objective_gradient(&self, w: &[f64], g: &mut [f64]) {
         g.iter_mut().for_each(|v| *v = 0.0);
-        g[self.idx(self.n, slot::M)] = -1.0;
+        g[self.idx(self.n, M::MASS)] = -1.0;
         self.for_each_soft_term(w, |j, (_, d1, _)| g[j] += d1);
     }
 
@@ -404,7 +426,7 @@ impl Nlp {
         let st = &self.soft;
         if st.margin_weight > 0.0 {
             for i in 0..self.n {
-                for s in [slot::ABOVE, slot::BELOW] {
+                for s in [Self::ABOVE, Self::BELOW] {
                     let j = self.idx(i, s);
                     f(j, (st.margin_weight * w[j], st.margin_weight, 0.0));
                 }
@@ -413,8 +435,8 @@ impl Nlp {
         if st.lateral_weight > 0.0 {
             let a = st.lateral_weight;
             for (s, target) in [
-                (slot::X, st.lateral_target.0),
-                (slot::VX, st.lateral_target.1),
+                (st.lateral_slots.0, st.lateral_target.0),
+                (st.lateral_slots.1, st.lateral_target.1),
             ] {
                 let j = self.idx(self.n, s);
                 let (v, g, h) = smooth_abs(w[j] - target);
@@ -427,20 +449,20 @@ impl Nlp {
     /// thrust itself, T + ABOVE − BELOW.
     fn physical_node(&self, w: &[f64], k: usize) -> [f64; NL] {
         let mut p: [f64; NL] = std::array::from_fn(|s| self.physical(s, w[self.idx(k, s)]));
-        p[slot::T] += p[slot::ABOVE] - p[slot::BELOW];
+        p[Self::T] += p[Self::ABOVE] - p[Self::BELOW];
         p
     }
 
     /// Thrust \[N\] at collocation point `i`: T + ABOVE − BELOW.
     pub fn thrust_n(&self, w: &[f64], i: usize) -> f64 {
-        self.physical_node(w, i)[slot::T]
+        self.physical_node(w, i)[Self::T]
     }
 
     /// Scaled rates F = f/scale at collocation point `i`.
     pub fn rates(&self, w: &[f64], i: usize) -> [f64; NS] {
         let p = self.physical_node(w, i);
         let mut f = [0.0; NS];
-        self.model.rhs(&p[..NS], &p[NS..NS + 2], &mut f);
+        self.model.rhs(&p[..NS], &p[NS..NS + M::NU], &mut f);
         std::array::from_fn(|c| f[c] / self.scale[c])
     }
 
@@ -462,30 +484,33 @@ impl Nlp {
         }
     }
 
-    /// F, ∂F/∂ŵ and Σ_c λ_c ∇²F_c at collocation point `i` (λ: 8 weights).
-    pub fn point_derivatives(&self, w: &[f64], i: usize, lambda: &[f64]) -> PointDerivatives {
+    /// F, ∂F/∂ŵ and Σ_c λ_c ∇²F_c at collocation point `i` (λ: NS weights).
+    pub fn point_derivatives(
+        &self,
+        w: &[f64],
+        i: usize,
+        lambda: &[f64],
+    ) -> PointDerivatives<NS, NL> {
         let p = self.physical_node(w, i);
-        let mut out = derivatives::point_derivatives::<Model, NS, NL, NA>(
-            &self.model,
-            &p,
-            &self.scale,
-            lambda,
-            &self.linear,
-        );
+        let mut out = self
+            .model
+            .point_derivatives::<NS, NL>(&p, &self.scale, lambda, &self.linear);
         // The slacks enter as the thrust does, with signs e = (+1, −1): their
         // columns are e·(T's column), and ∇² rows and columns likewise.
-        for (s, e) in [(slot::ABOVE, 1.0), (slot::BELOW, -1.0)] {
+        for (s, e) in [(Self::ABOVE, 1.0), (Self::BELOW, -1.0)] {
             for c in 0..NS {
-                out.jac[c][s] = e * out.jac[c][slot::T];
+                out.jac[c][s] = e * out.jac[c][Self::T];
             }
         }
-        let t_row = out.hess[slot::T];
-        for (s, e) in [(slot::ABOVE, 1.0), (slot::BELOW, -1.0)] {
+        let t_row = out.hess[Self::T];
+        for (s, e) in [(Self::ABOVE, 1.0), (Self::BELOW, -1.0)] {
             for q in 0..NL {
-                let v = match q {
-                    slot::ABOVE => e * t_row[slot::T],
-                    slot::BELOW => -e * t_row[slot::T],
-                    _ => e * t_row[q],
+                let v = if q == Self::ABOVE {
+                    e * t_row[Self::T]
+                } else if q == Self::BELOW {
+                    -e * t_row[Self::T]
+                } else {
+                    e * t_row[q]
                 };
                 out.hess[s][q] = v;
                 out.hess[q][s] = v;
@@ -520,6 +545,79 @@ impl Nlp {
                 out[tf] -= 0.5 * self.tf_scale * f[c] * l[c];
             }
         }
+    }
+
+    /// The multipliers of an answer on `from`'s mesh carried onto this
+    /// NLP's, for a primal–dual warm start ([`crate::method::direct::solve_nlp_warm`]).
+    ///
+    /// Collocation multipliers scale with the quadrature weights: λ_ic/w_i
+    /// is the discrete costate of state c at τ_i, and a bound multiplier of
+    /// a slot at node k, over w_k (w_{N−1} at node N), a density of the
+    /// path multiplier. Each density is carried piecewise linearly in τ
+    /// (multipliers of bounds switch on and off with their arcs, where a
+    /// polynomial would ring) and multiplied by this mesh's weights; t̂_f's
+    /// bound multipliers are copied.
+    pub fn interpolate_duals_from(&self, from: &Self, duals: &Duals) -> Duals {
+        let weight = |nlp: &Self, k: usize| nlp.mesh.weights[k.min(nlp.n - 1)];
+        let carry = |values: &dyn Fn(usize) -> f64, count: usize, to: usize| -> Vec<f64> {
+            let xs = &from.mesh.nodes[..count];
+            let ys: Vec<f64> = (0..count).map(|k| values(k) / weight(from, k)).collect();
+            (0..to)
+                .map(|k| weight(self, k) * piecewise_linear(xs, &ys, self.mesh.nodes[k]))
+                .collect()
+        };
+        let mut lambda = vec![0.0; self.n_con()];
+        for c in 0..NS {
+            let new = carry(&|i| duals.lambda[i * NS + c], from.n, self.n);
+            for (i, v) in new.into_iter().enumerate() {
+                lambda[i * NS + c] = v;
+            }
+        }
+        let bound = |z: &[f64]| {
+            let mut out = vec![0.0; self.n_var()];
+            for s in 0..NL {
+                let new = carry(&|k| z[from.idx(k, s)], from.n + 1, self.n + 1);
+                for (k, v) in new.into_iter().enumerate() {
+                    out[self.idx(k, s)] = v;
+                }
+            }
+            out[self.tf_idx()] = z[from.tf_idx()];
+            out
+        };
+        let zl = bound(&duals.zl);
+        let zu = bound(&duals.zu);
+        Duals { lambda, zl, zu }
+    }
+}
+
+impl Nlp {
+    /// The straight-line guess of the reference: states linear in τ from the
+    /// initial to the terminal state (mass to `final_mass_kg`, δ to 0),
+    /// T = (T_min + T_max)/2, χ = 0, t_f = `tf_s`. Scaled.
+    pub fn straight_line(&self, tf_s: f64, final_mass_kg: f64) -> Vec<f64> {
+        let mut w = Vec::new();
+        self.straight_line_into(tf_s, final_mass_kg, &mut w);
+        w
+    }
+
+    /// [`Self::straight_line`] into `w`, in its own storage.
+    pub fn straight_line_into(&self, tf_s: f64, final_mass_kg: f64, w: &mut Vec<f64>) {
+        w.clear();
+        w.resize(self.n_var(), 0.0);
+        let mut end = [0.0; NS];
+        end[..6].copy_from_slice(&self.target.state_si());
+        end[slot::M] = final_mass_kg;
+        let thrust = 0.5 * (self.model.min_thrust_n + self.model.max_thrust_n);
+        for (k, &tau) in self.mesh.nodes.iter().enumerate() {
+            let a = 0.5 * (tau + 1.0);
+            for s in 0..NS {
+                w[self.idx(k, s)] = self.scaled(s, self.x0[s] + a * (end[s] - self.x0[s]));
+            }
+            if k < self.n {
+                w[self.idx(k, slot::T)] = self.scaled(slot::T, thrust);
+            }
+        }
+        w[self.tf_idx()] = tf_s / self.tf_scale;
     }
 
     /// The scaled vector as a trajectory of the exact LCvx formulation
@@ -623,48 +721,6 @@ impl Nlp {
         }
         w[self.tf_idx()] = sol.tf_s / self.tf_scale;
         w
-    }
-
-    /// The multipliers of an answer on `from`'s mesh carried onto this
-    /// NLP's, for a primal–dual warm start ([`crate::method::direct::solve_nlp_warm`]).
-    ///
-    /// Collocation multipliers scale with the quadrature weights: λ_ic/w_i
-    /// is the discrete costate of state c at τ_i, and a bound multiplier of
-    /// a slot at node k, over w_k (w_{N−1} at node N), a density of the
-    /// path multiplier. Each density is carried piecewise linearly in τ
-    /// (multipliers of bounds switch on and off with their arcs, where a
-    /// polynomial would ring) and multiplied by this mesh's weights; t̂_f's
-    /// bound multipliers are copied.
-    pub fn interpolate_duals_from(&self, from: &Nlp, duals: &Duals) -> Duals {
-        let weight = |nlp: &Nlp, k: usize| nlp.mesh.weights[k.min(nlp.n - 1)];
-        let carry = |values: &dyn Fn(usize) -> f64, count: usize, to: usize| -> Vec<f64> {
-            let xs = &from.mesh.nodes[..count];
-            let ys: Vec<f64> = (0..count).map(|k| values(k) / weight(from, k)).collect();
-            (0..to)
-                .map(|k| weight(self, k) * piecewise_linear(xs, &ys, self.mesh.nodes[k]))
-                .collect()
-        };
-        let mut lambda = vec![0.0; self.n_con()];
-        for c in 0..NS {
-            let new = carry(&|i| duals.lambda[i * NS + c], from.n, self.n);
-            for (i, v) in new.into_iter().enumerate() {
-                lambda[i * NS + c] = v;
-            }
-        }
-        let bound = |z: &[f64]| {
-            let mut out = vec![0.0; self.n_var()];
-            for s in 0..NL {
-                let new = carry(&|k| z[from.idx(k, s)], from.n + 1, self.n + 1);
-                for (k, v) in new.into_iter().enumerate() {
-                    out[self.idx(k, s)] = v;
-                }
-            }
-            out[self.tf_idx()] = z[from.tf_idx()];
-            out
-        };
-        let zl = bound(&duals.zl);
-        let zu = bound(&duals.zu);
-        Duals { lambda, zl, zu }
     }
 
     /// Node k of the scaled vector from P2's physical state (mass in kg)
