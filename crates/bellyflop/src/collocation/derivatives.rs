@@ -43,7 +43,8 @@ impl<const NS: usize, const NL: usize> Default for PointDerivatives<NS, NL> {
 
 /// The nonzero entries (row c, input s, ∂f_c/∂v_s) of f's Jacobian in the
 /// inputs outside [`Dynamics::NONLINEAR`], where f is affine, by one dual
-/// pass per such input at `p` (any point: they are constant), into
+/// pass per such input at `p` (any point where f is defined: they are
+/// constant), into
 /// `entries` (cleared; it allocates only to grow, so that a re-plan's
 /// refresh allocates nothing).
 pub fn linear_columns<M: Dynamics, const NL: usize>(

@@ -2,6 +2,7 @@
 //! §3.1 (Eq. 7), and the adaptive rule (Mehrotra's probe), which falls back
 //! to the monotone one when its optimality error E_0 stalls.
 
+use crate::collocation::derivatives::Differentiable;
 use crate::input::settings::{DirectSettings, MuStrategy};
 use crate::method::direct::iterate::Iterate;
 use crate::method::direct::newton::Newton;
@@ -66,7 +67,12 @@ impl Barrier {
     /// decrease μ (Eq. 7) while the barrier problem is solved to κ_ε·μ,
     /// possibly several times. Whether μ changed (and the filter must be
     /// reset).
-    pub(super) fn update(&mut self, sys: &Newton, it: &Iterate, e0: f64) -> bool {
+    pub(super) fn update<M: Differentiable, const NS: usize, const NL: usize>(
+        &mut self,
+        sys: &Newton<'_, M, NS, NL>,
+        it: &Iterate,
+        e0: f64,
+    ) -> bool {
         let mut changed = false;
         if self.adaptive && !self.adaptive_progress(e0) {
             self.leave_adaptive_mode(sys, it);
@@ -86,7 +92,11 @@ impl Barrier {
 
     /// In the adaptive mode, after the factorization: μ from Mehrotra's
     /// probe. Whether μ was set (and the filter must be reset).
-    pub(super) fn probe(&mut self, sys: &mut Newton, it: &Iterate) -> bool {
+    pub(super) fn probe<M: Differentiable, const NS: usize, const NL: usize>(
+        &mut self,
+        sys: &mut Newton<'_, M, NS, NL>,
+        it: &Iterate,
+    ) -> bool {
         if !self.adaptive {
             return false;
         }
@@ -105,7 +115,11 @@ impl Barrier {
 
     /// Switch to the monotone rule for the rest of the solve, at μ = κ_μ
     /// times the average complementarity (the caller resets the filter).
-    pub(super) fn leave_adaptive_mode(&mut self, sys: &Newton, it: &Iterate) {
+    pub(super) fn leave_adaptive_mode<M: Differentiable, const NS: usize, const NL: usize>(
+        &mut self,
+        sys: &Newton<'_, M, NS, NL>,
+        it: &Iterate,
+    ) {
         self.adaptive = false;
         let (avg, _) = sys.complementarity(it, None);
         self.set((KAPPA_MU * avg).max(self.tol / 10.0));
@@ -114,7 +128,11 @@ impl Barrier {
     /// Mehrotra's probe: the affine-scaling step (μ = 0) with the current
     /// factors, its complementarity μ_aff, and μ = σ·avg with
     /// σ = (μ_aff/avg)³.
-    fn probe_mu(&self, sys: &mut Newton, it: &Iterate) -> f64 {
+    fn probe_mu<M: Differentiable, const NS: usize, const NL: usize>(
+        &self,
+        sys: &mut Newton<'_, M, NS, NL>,
+        it: &Iterate,
+    ) -> f64 {
         sys.newton_rhs(it, 0.0);
         sys.solve_kkt();
         let (mut dzl, mut dzu) = (

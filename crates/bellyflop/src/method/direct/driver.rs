@@ -7,6 +7,7 @@
 use std::ops::ControlFlow;
 use std::time::Instant;
 
+use crate::collocation::derivatives::Differentiable;
 use crate::input::settings::DirectSettings;
 use crate::method::direct::barrier::Barrier;
 use crate::method::direct::inertia::InertiaCorrection;
@@ -14,7 +15,7 @@ use crate::method::direct::iterate::Bounds;
 use crate::method::direct::iterate::{inf_norm, l1_norm, Iterate};
 use crate::method::direct::line_search::{FilterLineSearch, LineSearch};
 use crate::method::direct::newton::{Newton, Workspace};
-use crate::method::direct::nlp::{Duals, Nlp};
+use crate::method::direct::nlp::{Duals, Transcription};
 use crate::method::direct::restoration::Restoration;
 use crate::method::observer::{deadline_message, Iteration, Observer};
 use crate::solution::{DirectIteration, Status};
@@ -69,17 +70,17 @@ struct Progress {
 /// iterate, the barrier's E_0 history and the filter. Kept between the
 /// solves of a re-plan sequence ([`Storage::reuse_for`]), so that a
 /// re-plan allocates none of it (issue 27).
-pub struct Storage {
-    ws: Workspace,
+pub struct Storage<const NS: usize = 8, const NL: usize = 12> {
+    ws: Workspace<NS, NL>,
     bounds: Bounds,
     pub(super) iterate: Iterate,
     e0_history: Vec<f64>,
     filter: Vec<(f64, f64)>,
 }
 
-impl Storage {
+impl<const NS: usize, const NL: usize> Storage<NS, NL> {
     /// Storage for `nlp`.
-    pub fn new(nlp: &Nlp) -> Storage {
+    pub fn new<M: Differentiable>(nlp: &Transcription<M, NS, NL>) -> Self {
         Storage {
             ws: Workspace::new(nlp),
             bounds: Bounds::new(nlp),
@@ -97,7 +98,7 @@ impl Storage {
 
     /// This storage, reset to [`Storage::new`]'s state, for `nlp` when its
     /// structure fits (the same mesh and fixed variables); else new storage.
-    pub fn reuse_for(mut self, nlp: &Nlp) -> Storage {
+    pub fn reuse_for<M: Differentiable>(mut self, nlp: &Transcription<M, NS, NL>) -> Self {
         if !self.ws.solver.fits(nlp) {
             return Storage::new(nlp);
         }
@@ -114,7 +115,11 @@ impl Storage {
     /// Room for a solve of `nlp` of up to `max_iterations` iterations: the
     /// iterate's vectors, the barrier's history and the filter, so that
     /// even the first solve in this storage allocates nothing.
-    pub fn reserve(&mut self, nlp: &Nlp, max_iterations: usize) {
+    pub fn reserve<M: Differentiable>(
+        &mut self,
+        nlp: &Transcription<M, NS, NL>,
+        max_iterations: usize,
+    ) {
         let (nv, nc) = (nlp.n_var(), nlp.n_con());
         let it = &mut self.iterate;
         for (v, len) in [
@@ -122,7 +127,8 @@ impl Storage {
             (&mut it.lambda, nc),
             (&mut it.zl, nv),
             (&mut it.zu, nv),
-            (&mut it.zr, nlp.limits.len() * nlp.n),
+            // At most every row at every node.
+            (&mut it.zr, (nlp.limits.len() + M::PATH_ROWS) * (nlp.n + 1)),
         ] {
             v.reserve(len.saturating_sub(v.len()));
         }
@@ -144,7 +150,7 @@ impl Storage {
     }
 }
 
-impl std::fmt::Debug for Storage {
+impl<const NS: usize, const NL: usize> std::fmt::Debug for Storage<NS, NL> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Storage")
             .field("variables", &self.bounds.lo.len())
@@ -160,10 +166,10 @@ pub(super) struct Ended {
     pub max_defect: f64,
 }
 
-pub(super) struct Driver<'a> {
-    nlp: &'a Nlp,
+pub(super) struct Driver<'a, M, const NS: usize, const NL: usize> {
+    nlp: &'a Transcription<M, NS, NL>,
     settings: &'a DirectSettings,
-    sys: Newton<'a>,
+    sys: Newton<'a, M, NS, NL>,
     barrier: Barrier,
     inertia: InertiaCorrection,
     search: FilterLineSearch,
@@ -172,16 +178,16 @@ pub(super) struct Driver<'a> {
     spare: Iterate,
 }
 
-impl<'a> Driver<'a> {
-    pub(super) fn new(nlp: &'a Nlp, settings: &'a DirectSettings) -> Self {
+impl<'a, M: Differentiable, const NS: usize, const NL: usize> Driver<'a, M, NS, NL> {
+    pub(super) fn new(nlp: &'a Transcription<M, NS, NL>, settings: &'a DirectSettings) -> Self {
         Driver::with_storage(nlp, settings, Storage::new(nlp))
     }
 
     /// A driver that lives in `storage` (made for `nlp`).
     pub(super) fn with_storage(
-        nlp: &'a Nlp,
+        nlp: &'a Transcription<M, NS, NL>,
         settings: &'a DirectSettings,
-        storage: Storage,
+        storage: Storage<NS, NL>,
     ) -> Self {
         Driver {
             nlp,
@@ -195,7 +201,7 @@ impl<'a> Driver<'a> {
     }
 
     /// Its storage, for the next solve of the same structure.
-    fn into_storage(self, iterate: Iterate) -> Storage {
+    fn into_storage(self, iterate: Iterate) -> Storage<NS, NL> {
         let (ws, bounds) = self.sys.into_parts();
         Storage {
             ws,
@@ -207,10 +213,8 @@ impl<'a> Driver<'a> {
     }
 
     fn final_mass_kg(&self, w: &[f64]) -> f64 {
-        let k = self
-            .nlp
-            .idx(self.nlp.n, crate::method::direct::nlp::slot::M);
-        self.nlp.physical(crate::method::direct::nlp::slot::M, w[k])
+        let k = self.nlp.idx(self.nlp.n, M::MASS);
+        self.nlp.physical(M::MASS, w[k])
     }
 
     pub(super) fn run(self, start: Start, observer: &mut dyn Observer) -> NlpResult {
@@ -237,7 +241,7 @@ impl<'a> Driver<'a> {
         start: Start,
         observer: &mut dyn Observer,
         history: &mut Vec<DirectIteration>,
-    ) -> (Ended, Storage) {
+    ) -> (Ended, Storage<NS, NL>) {
         let mut it = self.initial_iterate(start);
         history.reserve(self.settings.max_iterations);
         let mut outcome: Option<Outcome> = None;

@@ -3,6 +3,7 @@
 //! the inertia of a descent direction, and the memory of the last δ_w that
 //! IPOPT's schedule starts from.
 
+use crate::collocation::derivatives::Differentiable;
 use crate::method::direct::newton::Newton;
 
 /// First trial, smallest and largest δ_w, and its decrease and growth factors.
@@ -30,7 +31,11 @@ impl InertiaCorrection {
     /// Inertia-correcting factorization of `sys`'s KKT blocks at barrier
     /// `mu`: the smallest δ_w of IPOPT's schedule with which K has the
     /// inertia (n, m, 0), and δ_c > 0 once K is singular.
-    pub(super) fn factor(&mut self, sys: &mut Newton, mu: f64) -> Result<(), String> {
+    pub(super) fn factor<M: Differentiable, const NS: usize, const NL: usize>(
+        &mut self,
+        sys: &mut Newton<'_, M, NS, NL>,
+        mu: f64,
+    ) -> Result<(), String> {
         let h_tt = sys.ws.kkt.h_tt;
         // After an iteration that needed a correction, start from a third of
         // it instead of from 0 (which would almost surely fail again and cost

@@ -3,7 +3,8 @@
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
-use crate::method::direct::nlp::Nlp;
+use crate::collocation::derivatives::Differentiable;
+use crate::method::direct::nlp::Transcription;
 
 /// The primal–dual iterate.
 pub(super) struct Iterate {
@@ -25,7 +26,9 @@ pub(super) struct Bounds {
 }
 
 impl Bounds {
-    pub(super) fn new(nlp: &Nlp) -> Self {
+    pub(super) fn new<M: Differentiable, const NS: usize, const NL: usize>(
+        nlp: &Transcription<M, NS, NL>,
+    ) -> Self {
         let n = nlp.n_var();
         let free: Vec<bool> = (0..n).map(|j| !nlp.is_fixed(j)).collect();
         Bounds {
@@ -39,7 +42,10 @@ impl Bounds {
 
     /// Set to `nlp`'s bounds in place (as [`Bounds::new`], without
     /// allocating once the vectors have their size).
-    pub(super) fn refill(&mut self, nlp: &Nlp) {
+    pub(super) fn refill<M: Differentiable, const NS: usize, const NL: usize>(
+        &mut self,
+        nlp: &Transcription<M, NS, NL>,
+    ) {
         let n = nlp.n_var();
         self.free.clear();
         self.free.extend((0..n).map(|j| !nlp.is_fixed(j)));

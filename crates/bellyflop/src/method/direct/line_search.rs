@@ -4,6 +4,7 @@
 //! point (or the Armijo condition in the switching case) and is acceptable
 //! to the filter of (θ, φ) pairs.
 
+use crate::collocation::derivatives::Differentiable;
 use crate::method::direct::iterate::{l1_norm, Iterate};
 use crate::method::direct::newton::Newton;
 
@@ -100,9 +101,9 @@ impl FilterLineSearch {
     /// (in `sys.ws.w_old`) at barrier `mu` and fraction to the boundary
     /// `tau`; on an accepted step that is not of f-type, the filter is
     /// augmented with the starting point.
-    pub(super) fn search(
+    pub(super) fn search<M: Differentiable, const NS: usize, const NL: usize>(
         &mut self,
-        sys: &mut Newton,
+        sys: &mut Newton<'_, M, NS, NL>,
         it: &mut Iterate,
         (mu, tau): (f64, f64),
     ) -> LineSearch {
@@ -146,9 +147,9 @@ impl FilterLineSearch {
 
     /// The backtracking filter line search with second-order corrections,
     /// from `w` along (`dw`, `dl`).
-    fn backtrack(
+    fn backtrack<M: Differentiable, const NS: usize, const NL: usize>(
         &mut self,
-        sys: &mut Newton,
+        sys: &mut Newton<'_, M, NS, NL>,
         it: &mut Iterate,
         w: &[f64],
         dw: &[f64],
@@ -203,9 +204,9 @@ impl FilterLineSearch {
     /// Second-order corrections of the first trial (§2.4), at step `alpha`
     /// with infeasibility `theta_trial`: steps on the accumulated constraint
     /// values c_soc = α·c_soc + c(w + α d_soc).
-    fn second_order_correction(
+    fn second_order_correction<M: Differentiable, const NS: usize, const NL: usize>(
         &mut self,
-        sys: &mut Newton,
+        sys: &mut Newton<'_, M, NS, NL>,
         it: &mut Iterate,
         o: Origin,
         (alpha, theta_trial): (f64, f64),

@@ -43,8 +43,10 @@ mod newton;
 pub mod nlp;
 mod restoration;
 mod rows;
+pub mod six_dof;
 pub mod solver;
 
+use crate::collocation::derivatives::Differentiable;
 use crate::input::settings::DirectSettings;
 use crate::input::settings::Method;
 use crate::input::settings::SolverSettings;
@@ -59,12 +61,13 @@ pub use crate::method::direct::driver::{NlpResult, Start};
 pub use crate::method::direct::mesh_transfer::interpolate;
 pub use crate::method::direct::newton::lagrangian_blocks;
 use crate::method::direct::nlp::Duals;
-use crate::method::direct::nlp::Nlp;
+use crate::method::direct::nlp::{Nlp, Transcription};
 use crate::method::observer::Observer;
 
-/// Solve P2 from the scaled point `w0` (pushed inside its bounds).
-pub fn solve_nlp(
-    nlp: &Nlp,
+/// Solve a transcription (P2, or a model's behind the seam) from the
+/// scaled point `w0` (pushed inside its bounds).
+pub fn solve_nlp<M: Differentiable, const NS: usize, const NL: usize>(
+    nlp: &Transcription<M, NS, NL>,
     w0: &[f64],
     lambda0: Option<&[f64]>,
     settings: &DirectSettings,
@@ -79,8 +82,8 @@ pub fn solve_nlp(
 /// below the barrier's complementarity. For the passes of mesh refinement,
 /// whose starts are the last pass's answer and multipliers carried onto a
 /// finer mesh ([`crate::method::direct::nlp::Nlp::interpolate_duals_from`]).
-pub fn solve_nlp_warm(
-    nlp: &Nlp,
+pub fn solve_nlp_warm<M: Differentiable, const NS: usize, const NL: usize>(
+    nlp: &Transcription<M, NS, NL>,
     w0: &[f64],
     duals: &Duals,
     settings: &DirectSettings,

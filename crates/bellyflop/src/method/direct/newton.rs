@@ -8,9 +8,10 @@
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
+use crate::collocation::derivatives::Differentiable;
 use crate::method::direct::iterate::{inf_norm, l1_norm, Bounds, Iterate};
 use crate::method::direct::kkt::{Inertia, KktMatrix, KktSolver};
-use crate::method::direct::nlp::{Nlp, PointDerivatives, NL, NS};
+use crate::method::direct::nlp::{PointDerivatives, Transcription};
 use crate::method::direct::rows::NodeRows;
 
 /// s_max of the scaled optimality error (Eq. 5).
@@ -29,12 +30,12 @@ const REFINE_TOL: f64 = 1e-12;
 /// The Hessian of the Lagrangian f + λᵀc and the Jacobian of c in the
 /// blocks of [`KktMatrix`] (no barrier, no regularization), from the
 /// point derivatives at `w` with multipliers `lambda`.
-pub fn lagrangian_blocks(
-    nlp: &Nlp,
+pub fn lagrangian_blocks<M: Differentiable, const NS: usize, const NL: usize>(
+    nlp: &Transcription<M, NS, NL>,
     w: &[f64],
     lambda: &[f64],
-    derivs: &[PointDerivatives],
-    kkt: &mut KktMatrix,
+    derivs: &[PointDerivatives<NS, NL>],
+    kkt: &mut KktMatrix<NS, NL>,
 ) {
     let n = nlp.n;
     let half_tf = 0.5 * nlp.tf_s(w);
@@ -66,10 +67,10 @@ pub fn lagrangian_blocks(
 }
 
 /// Scratch of one solve.
-pub(super) struct Workspace {
-    pub(super) kkt: KktMatrix,
-    pub(super) solver: KktSolver,
-    pub(super) derivs: Vec<PointDerivatives>,
+pub(super) struct Workspace<const NS: usize, const NL: usize> {
+    pub(super) kkt: KktMatrix<NS, NL>,
+    pub(super) solver: KktSolver<NS, NL>,
+    pub(super) derivs: Vec<PointDerivatives<NS, NL>>,
     pub(super) jac: Vec<[[f64; NL]; NS]>,
     pub(super) c: Vec<f64>,
     pub(super) c_trial: Vec<f64>,
@@ -93,12 +94,14 @@ pub(super) struct Workspace {
     pub(super) dzu: Vec<f64>,
     pub(super) c_soc: Vec<f64>,
     /// The storage of [`Newton::rows`] and [`Newton::dzr`] between solves.
-    rows: NodeRows,
+    rows: NodeRows<NL>,
     dzr: Vec<f64>,
 }
 
-impl Workspace {
-    pub(super) fn new(nlp: &Nlp) -> Self {
+impl<const NS: usize, const NL: usize> Workspace<NS, NL> {
+    pub(super) fn new<M: Differentiable>(nlp: &Transcription<M, NS, NL>) -> Self {
+        let mut rows = NodeRows::default();
+        rows.refill(nlp);
         let (nv, nc) = (nlp.n_var(), nlp.n_con());
         Workspace {
             kkt: KktMatrix::zeros(nlp),
@@ -130,17 +133,13 @@ impl Workspace {
             dzl: vec![0.0; nv],
             dzu: vec![0.0; nv],
             c_soc: vec![0.0; nc],
-            rows: {
-                let mut rows = NodeRows::default();
-                rows.refill(nlp);
-                rows
-            },
-            dzr: vec![0.0; nlp.limits.len() * nlp.n],
+            dzr: vec![0.0; rows.len()],
+            rows,
         }
     }
 }
 
-impl Workspace {
+impl<const NS: usize, const NL: usize> Workspace<NS, NL> {
     /// Back to the state of [`Workspace::new`] for an NLP of the same
     /// structure ([`KktSolver::fits`]).
     pub(super) fn reset(&mut self) {
@@ -178,22 +177,26 @@ impl Workspace {
 }
 
 /// The barrier problem of P2 at an iterate, and its Newton system.
-pub(super) struct Newton<'a> {
-    pub(super) nlp: &'a Nlp,
+pub(super) struct Newton<'a, M, const NS: usize, const NL: usize> {
+    pub(super) nlp: &'a Transcription<M, NS, NL>,
     pub(super) bounds: Bounds,
     /// The operational rows at the nodes, evaluated with the iterate.
-    pub(super) rows: NodeRows,
+    pub(super) rows: NodeRows<NL>,
     /// Their multiplier step.
     pub(super) dzr: Vec<f64>,
-    pub(super) ws: Workspace,
+    pub(super) ws: Workspace<NS, NL>,
     /// Free primal variables (with t̂_f).
     n_primal: usize,
 }
 
-impl<'a> Newton<'a> {
+impl<'a, M: Differentiable, const NS: usize, const NL: usize> Newton<'a, M, NS, NL> {
     /// The system of `nlp` in `ws` and `bounds` (made or refilled for
     /// `nlp`).
-    pub(super) fn with_parts(nlp: &'a Nlp, mut ws: Workspace, bounds: Bounds) -> Self {
+    pub(super) fn with_parts(
+        nlp: &'a Transcription<M, NS, NL>,
+        mut ws: Workspace<NS, NL>,
+        bounds: Bounds,
+    ) -> Self {
         let nv = nlp.n_var();
         let mut rows = std::mem::take(&mut ws.rows);
         rows.refill(nlp);
@@ -211,7 +214,7 @@ impl<'a> Newton<'a> {
     }
 
     /// Its workspace and bounds, for the next solve of the same structure.
-    pub(super) fn into_parts(mut self) -> (Workspace, Bounds) {
+    pub(super) fn into_parts(mut self) -> (Workspace<NS, NL>, Bounds) {
         self.ws.rows = self.rows;
         self.ws.dzr = self.dzr;
         (self.ws, self.bounds)
@@ -227,7 +230,7 @@ impl<'a> Newton<'a> {
     pub(super) fn max_step(&self, w: &[f64], dw: &[f64], tau: f64) -> f64 {
         self.bounds
             .max_step(w, dw, tau)
-            .min(self.rows.max_step(self.nlp, dw, tau))
+            .min(self.rows.max_step(self.nlp, w, dw, tau))
     }
 
     /// Derivatives at every collocation point, with multipliers λ.

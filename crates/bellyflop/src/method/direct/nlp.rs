@@ -219,7 +219,7 @@ impl Nlp {
     }
 }
 
-impl<M: Differentiable + Clone, const NS: usize, const NL: usize> Transcription<M, NS, NL> {
+impl<M: Differentiable, const NS: usize, const NL: usize> Transcription<M, NS, NL> {
     /// The thrust slot: the model's thrust control.
     pub const T: usize = NS + M::THRUST;
     /// The thrust slacks, after the model's controls ([`SoftTerms`]).
@@ -260,7 +260,10 @@ impl<M: Differentiable + Clone, const NS: usize, const NL: usize> Transcription<
         x0: [f64; NS],
         target: &TerminalState,
     ) {
-        derivatives::linear_columns(&self.model, &offset, &mut self.linear);
+        // At the start: a point where f is defined (the 6-DoF model's
+        // rotation is not at q = 0).
+        let p: [f64; NL] = std::array::from_fn(|s| if s < NS { x0[s] } else { offset[s] });
+        derivatives::linear_columns(&self.model, &p, &mut self.linear);
         self.offset = offset;
         self.scale = scale;
         self.tf_scale = tf_scale;

@@ -5,11 +5,11 @@
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
+use crate::collocation::derivatives::Differentiable;
 use crate::method::direct::inertia::InertiaCorrection;
 use crate::method::direct::iterate::{l1_norm, Iterate};
 use crate::method::direct::line_search::{FilterLineSearch, GAMMA_THETA};
 use crate::method::direct::newton::Newton;
-use crate::method::direct::nlp::NL;
 
 /// Restoration: iterations, and the factor by which it must reduce θ.
 const RESTORATION_ITERATIONS: usize = 40;
@@ -30,8 +30,8 @@ impl Restoration {
     /// that keep the bounds' barrier, until θ has fallen by
     /// [`RESTORATION_REDUCTION`] and the point is acceptable to the filter
     /// (augmented first with the point the phase starts from).
-    pub(super) fn run(
-        sys: &mut Newton,
+    pub(super) fn run<M: Differentiable, const NS: usize, const NL: usize>(
+        sys: &mut Newton<'_, M, NS, NL>,
         inertia: &mut InertiaCorrection,
         search: &mut FilterLineSearch,
         it: &mut Iterate,
@@ -59,9 +59,9 @@ impl Restoration {
 
     /// One restoration iteration; whether the phase is over (with fresh
     /// multipliers for the regular phase).
-    fn iteration(
+    fn iteration<M: Differentiable, const NS: usize, const NL: usize>(
         &self,
-        sys: &mut Newton,
+        sys: &mut Newton<'_, M, NS, NL>,
         inertia: &mut InertiaCorrection,
         search: &FilterLineSearch,
         it: &mut Iterate,
@@ -95,9 +95,9 @@ impl Restoration {
 
     /// The Gauss–Newton step at `w` (the iterate) into ws.dw: W = ζ I + Σ,
     /// the gradient of the barrier only.
-    fn newton_step(
+    fn newton_step<M: Differentiable, const NS: usize, const NL: usize>(
         &self,
-        sys: &mut Newton,
+        sys: &mut Newton<'_, M, NS, NL>,
         inertia: &mut InertiaCorrection,
         it: &Iterate,
         w: &[f64],
@@ -141,7 +141,13 @@ impl Restoration {
 
     /// The largest α = α_max·2^−l above 1e-8 that reduces θ below
     /// (1 − γ_θ)·`theta0`, if any.
-    fn backtrack(&self, sys: &mut Newton, w: &[f64], dw: &[f64], theta0: f64) -> Option<f64> {
+    fn backtrack<M: Differentiable, const NS: usize, const NL: usize>(
+        &self,
+        sys: &mut Newton<'_, M, NS, NL>,
+        w: &[f64],
+        dw: &[f64],
+        theta0: f64,
+    ) -> Option<f64> {
         let mut alpha = sys.max_step(w, dw, self.tau);
         while alpha > 1e-8 {
             let (theta, _) = sys.trial_point(w, dw, alpha, self.mu);

@@ -66,8 +66,9 @@
 
 #![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
 
+use crate::collocation::derivatives::Differentiable;
 use crate::collocation::mesh::Mesh;
-use crate::method::direct::nlp::{Nlp, NL as PLANAR_NL, NS as PLANAR_NS};
+use crate::method::direct::nlp::{Transcription, NL as PLANAR_NL, NS as PLANAR_NS};
 
 mod banded;
 mod dense;
@@ -325,27 +326,31 @@ pub trait Layout<const NS: usize, const NL: usize> {
     fn eliminates_x(&self) -> bool;
 }
 
-/// The planar P2 transcription. It eliminates x unless an operational row
-/// involves x (the approach cone, issue 37), whose barrier terms give x
-/// rows of W.
-impl Layout<PLANAR_NS, PLANAR_NL> for Nlp {
+/// A model's transcription ([`Transcription`]). It eliminates x (slot 0:
+/// in both models it enters f only through ẋ = Vx, and has no bound)
+/// unless an operational row involves x (the planar approach cone, issue
+/// 37), whose barrier terms give x rows of W.
+impl<M, const NS: usize, const NL: usize> Layout<NS, NL> for Transcription<M, NS, NL>
+where
+    M: Differentiable,
+{
     fn n(&self) -> usize {
         self.n
     }
     fn idx(&self, k: usize, s: usize) -> usize {
-        Nlp::idx(self, k, s)
+        Transcription::idx(self, k, s)
     }
     fn tf_idx(&self) -> usize {
-        Nlp::tf_idx(self)
+        Transcription::tf_idx(self)
     }
     fn n_var(&self) -> usize {
-        Nlp::n_var(self)
+        Transcription::n_var(self)
     }
     fn n_con(&self) -> usize {
-        Nlp::n_con(self)
+        Transcription::n_con(self)
     }
     fn is_fixed(&self, j: usize) -> bool {
-        Nlp::is_fixed(self, j)
+        Transcription::is_fixed(self, j)
     }
     fn mesh(&self) -> &Mesh {
         &self.mesh
