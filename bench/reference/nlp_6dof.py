@@ -311,9 +311,11 @@ BOX = [(-200, 200), (500, 800), (-15, 15), (-95, -70), (80, 95), (110000, 125000
 OUT = dict(y=(-200, 200), vy=(-15, 15), psi_deg=(-20, 20), phi_deg=(-20, 20), rate_degps=(-5, 5))
 
 
-def dispersed(sc_path, count, seed, N, repeat):
+def dispersed_starts(sc_path, count, seed):
+    """The seeded 3-D states of the box (BOX and OUT): per state its name,
+    scenario (its planar start, the guess m_f = m_0 - 5 t), 6-DoF start and
+    the upright attitude with its yaw and roll (the guess's end)."""
     rng = random.Random(seed)
-    rows = []
     for k in range(count):
         x, z, vx, vz, th, m = (rng.uniform(lo, hi) for lo, hi in BOX)
         y, vy = rng.uniform(*OUT["y"]), rng.uniform(*OUT["vy"])
@@ -322,13 +324,18 @@ def dispersed(sc_path, count, seed, N, repeat):
         sc = load_scenario(sc_path)
         sc = dataclasses.replace(sc, x0=np.array([x, z, vx, vz, math.radians(th), 0.0, m]),
                                  mf_guess=m - 5000.0)
-        start = start_state(sc, y, vy, psi, phi, rates)
-        six = Nlp6(sc, N).solve(start, attitude(0.0, psi, phi), repeat)
+        yield f"box3d{k}", sc, start_state(sc, y, vy, psi, phi, rates), attitude(0.0, psi, phi)
+
+
+def dispersed(sc_path, count, seed, N, repeat):
+    rows = []
+    for name, sc, start, upright in dispersed_starts(sc_path, count, seed):
+        six = Nlp6(sc, N).solve(start, upright, repeat)
         end, lowest = reintegrate6(sc, N, start, six["X"], six["U"], six["tf_s"])
         pad = np.array([sc.xf[0], 0.0, sc.xf[1]])
         p2 = LgrNlp(sc, N, "P2", intervals=1, ground=True)
         sol, st, planar_ms = planar_solve(p2, repeat)
-        row = dict(name=f"box3d{k}", converged=six["converged"], status=six["status"],
+        row = dict(name=name, converged=six["converged"], status=six["status"],
                    iterations=six["iterations"], tf_s=six["tf_s"], mf_kg=six["mf_kg"],
                    time_ms=six["time_ms"], planar_converged=bool(st["success"]), planar_time_ms=planar_ms,
                    q_norm_max_dev=six["q_norm_max_dev"],

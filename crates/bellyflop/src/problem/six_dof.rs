@@ -155,7 +155,105 @@ pub fn thrust_direction<D: DualNum<Primitive = f64> + Copy>(d1: D, d2: D) -> [D;
     [-(s1 * c2), -s2, c1 * c2]
 }
 
-/// ẋ for state `s` ([`sx`]) and control `u` ([`su`]) (module equations).
+/// The drag force D = −C_LD·‖V_a‖·V_a on the air-relative velocity
+/// V_a = V − W (Eq. 2, with the planar model's smoothing of ‖·‖).
+pub fn drag_force<D: DualNum<Primitive = f64> + Copy>(model: &SixDof, v: [D; 3]) -> [D; 3] {
+    let va: [D; 3] = std::array::from_fn(|i| v[i] - model.wind_mps[i]);
+    let speed = (va[0] * va[0] + va[1] * va[1] + va[2] * va[2] + 1e-12).sqrt();
+    std::array::from_fn(|i| va[i] * speed * (-model.planar.c_ld_kgpm))
+}
+
+/// The inertia J = m·(k_t, k_t, k_r) (module equations).
+fn inertia<D: DualNum<Primitive = f64> + Copy>(model: &SixDof, m: D) -> [D; 3] {
+    let kt = model.planar.inertia_per_mass_m2;
+    [m * kt, m * kt, m * model.roll_inertia_per_mass_m2]
+}
+
+/// The terms of f whose sum is [`rhs`], each a function of a few inputs
+/// only, so that a transcription can differentiate each over its own
+/// inputs (`collocation::derivatives`, the 6-DoF's `Differentiable`): the
+/// thrust's acceleration T·R·d/m (q, δ, T, m).
+pub fn thrust_acceleration<D: DualNum<Primitive = f64> + Copy>(
+    q: [D; 4],
+    delta: [D; 2],
+    thrust: D,
+    m: D,
+) -> [D; 3] {
+    let d = thrust_direction(delta[0], delta[1]);
+    let f = apply(&rotation(q), std::array::from_fn(|i| d[i] * thrust));
+    std::array::from_fn(|i| f[i] / m)
+}
+
+/// The drag's acceleration D/m (V, m).
+pub fn drag_acceleration<D: DualNum<Primitive = f64> + Copy>(
+    model: &SixDof,
+    v: [D; 3],
+    m: D,
+) -> [D; 3] {
+    let drag = drag_force(model, v);
+    std::array::from_fn(|i| drag[i] / m)
+}
+
+/// The thrust's angular acceleration J⁻¹·((−l_cg·e_z) × (T·d)) (δ, T, m).
+pub fn thrust_angular_acceleration<D: DualNum<Primitive = f64> + Copy>(
+    model: &SixDof,
+    delta: [D; 2],
+    thrust: D,
+    m: D,
+) -> [D; 3] {
+    let d = thrust_direction(delta[0], delta[1]);
+    let arm = [D::zero(), D::zero(), D::from(-model.planar.cg_m)];
+    let tau = cross(arm, std::array::from_fn(|i| d[i] * thrust));
+    let j = inertia(model, m);
+    std::array::from_fn(|i| tau[i] / j[i])
+}
+
+/// The drag's angular acceleration J⁻¹·(((l_cp − l_cg)·e_z) × (Rᵀ·D))
+/// (V, q, m).
+pub fn drag_angular_acceleration<D: DualNum<Primitive = f64> + Copy>(
+    model: &SixDof,
+    v: [D; 3],
+    q: [D; 4],
+    m: D,
+) -> [D; 3] {
+    let p = &model.planar;
+    let arm = [D::zero(), D::zero(), D::from(p.cp_m - p.cg_m)];
+    let tau = cross(arm, apply_transposed(&rotation(q), drag_force(model, v)));
+    let j = inertia(model, m);
+    std::array::from_fn(|i| tau[i] / j[i])
+}
+
+/// The gyroscopic angular acceleration −J⁻¹·(ω × J·ω) (ω, m).
+pub fn gyroscopic_angular_acceleration<D: DualNum<Primitive = f64> + Copy>(
+    model: &SixDof,
+    w: [D; 3],
+    m: D,
+) -> [D; 3] {
+    let j = inertia(model, m);
+    let gyro = cross(w, std::array::from_fn(|i| j[i] * w[i]));
+    std::array::from_fn(|i| -gyro[i] / j[i])
+}
+
+/// q̇ = ½·q ⊗ (0, ω) + κ·(1 − |q|²)·q (q, ω).
+pub fn quaternion_rate<D: DualNum<Primitive = f64> + Copy>(
+    model: &SixDof,
+    q: [D; 4],
+    w: [D; 3],
+) -> [D; 4] {
+    let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    let pull = (D::one() - n2) * model.norm_gain_per_s;
+    let qw = [
+        -(q[1] * w[0] + q[2] * w[1] + q[3] * w[2]),
+        q[0] * w[0] + q[2] * w[2] - q[3] * w[1],
+        q[0] * w[1] + q[3] * w[0] - q[1] * w[2],
+        q[0] * w[2] + q[1] * w[1] - q[2] * w[0],
+    ];
+    std::array::from_fn(|i| qw[i] * 0.5 + q[i] * pull)
+}
+
+/// ẋ for state `s` ([`sx`]) and control `u` ([`su`]) (module equations):
+/// the sum of the terms above, with ṙ = V, the gravity, ṁ = −T/(I_sp·g0)
+/// and δ̇ = χ.
 pub fn rhs<D: DualNum<Primitive = f64> + Copy>(
     model: &SixDof,
     s: &[D; NX],
@@ -165,47 +263,22 @@ pub fn rhs<D: DualNum<Primitive = f64> + Copy>(
     let v = [s[sx::VX], s[sx::VY], s[sx::VZ]];
     let q = [s[sx::Q], s[sx::Q + 1], s[sx::Q + 2], s[sx::Q + 3]];
     let w = [s[sx::W], s[sx::W + 1], s[sx::W + 2]];
-    let m = s[sx::M];
-    let thrust = u[su::T];
-    let r = rotation(q);
-    // Drag on the air-relative velocity, with the planar model's smoothing.
-    let va: [D; 3] = std::array::from_fn(|i| v[i] - model.wind_mps[i]);
-    let speed = (va[0] * va[0] + va[1] * va[1] + va[2] * va[2] + 1e-12).sqrt();
-    let drag: [D; 3] = std::array::from_fn(|i| va[i] * speed * (-p.c_ld_kgpm));
-    let d = thrust_direction(s[sx::DELTA], s[sx::DELTA + 1]);
-    let force_body: [D; 3] = std::array::from_fn(|i| d[i] * thrust);
-    let force = apply(&r, force_body);
-    // Torques in the body frame.
-    let axis = |a: f64| [D::zero(), D::zero(), D::from(a)];
-    let tau_thrust = cross(axis(-p.cg_m), force_body);
-    let tau_drag = cross(axis(p.cp_m - p.cg_m), apply_transposed(&r, drag));
-    let (kt, kr) = (p.inertia_per_mass_m2, model.roll_inertia_per_mass_m2);
-    let inertia = [m * kt, m * kt, m * kr];
-    let jw: [D; 3] = std::array::from_fn(|i| inertia[i] * w[i]);
-    let gyro = cross(w, jw);
-    let w_dot: [D; 3] =
-        std::array::from_fn(|i| (tau_thrust[i] + tau_drag[i] - gyro[i]) / inertia[i]);
-    // q̇ = ½ q ⊗ (0, ω) + κ(1 − |q|²) q.
-    let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
-    let pull = (D::one() - n2) * model.norm_gain_per_s;
-    let qw = [
-        -(q[1] * w[0] + q[2] * w[1] + q[3] * w[2]),
-        q[0] * w[0] + q[2] * w[2] - q[3] * w[1],
-        q[0] * w[1] + q[3] * w[0] - q[1] * w[2],
-        q[0] * w[2] + q[1] * w[1] - q[2] * w[0],
-    ];
+    let delta = [s[sx::DELTA], s[sx::DELTA + 1]];
+    let (m, thrust) = (s[sx::M], u[su::T]);
+    let a_thrust = thrust_acceleration(q, delta, thrust, m);
+    let a_drag = drag_acceleration(model, v, m);
+    let w_thrust = thrust_angular_acceleration(model, delta, thrust, m);
+    let w_drag = drag_angular_acceleration(model, v, q, m);
+    let w_gyro = gyroscopic_angular_acceleration(model, w, m);
+    let q_dot = quaternion_rate(model, q, w);
     let mut out = [D::zero(); NX];
-    out[sx::X] = v[0];
-    out[sx::Y] = v[1];
-    out[sx::Z] = v[2];
     for i in 0..3 {
-        out[sx::VX + i] = (force[i] + drag[i]) / m;
-        out[sx::W + i] = w_dot[i];
+        out[sx::X + i] = v[i];
+        out[sx::VX + i] = a_thrust[i] + a_drag[i];
+        out[sx::W + i] = w_thrust[i] + w_drag[i] + w_gyro[i];
     }
     out[sx::VZ] -= p.g0_mps2;
-    for i in 0..4 {
-        out[sx::Q + i] = qw[i] * 0.5 + q[i] * pull;
-    }
+    out[sx::Q..sx::Q + 4].copy_from_slice(&q_dot);
     out[sx::M] = thrust * p.alpha_spm;
     out[sx::DELTA] = u[su::CHI];
     out[sx::DELTA + 1] = u[su::CHI + 1];

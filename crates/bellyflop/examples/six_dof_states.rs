@@ -1,0 +1,87 @@
+//! Solve 6-DoF states with the direct method (issue 38), for the
+//! side-by-side with IPOPT in `bench/six_dof_vs_ipopt.py`: reads a JSON
+//! file of states and guesses, solves each from the reference's straight
+//! line `repeat` times, and prints one JSON object with, per state, the
+//! status, iterations, t_f, m_f, the median wall time of the solve (the
+//! transcription's construction and the guess included) and the answer.
+//!
+//!     cargo run --release -p bellyflop --example six_dof_states -- STATES.json
+//!
+//! STATES.json: {"nodes": 20, "repeat": 5, "states": [{"name": ...,
+//! "start": [16 numbers], "tf_guess_s": ..., "mf_guess_kg": ...}, ...]}.
+//! The vehicle and the landing are the paper's.
+
+use std::time::Instant;
+
+use bellyflop::input::settings::DirectSettings;
+use bellyflop::method::direct::six_dof::{Nlp6, NS};
+use bellyflop::method::observer::Silent;
+use bellyflop::problem::six_dof::{sx, SixDof, NU, NX};
+use bellyflop::{Mesh, Scenario};
+use serde_json::{json, Value};
+
+fn numbers(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .expect("an array")
+        .iter()
+        .map(|x| x.as_f64().expect("a number"))
+        .collect()
+}
+
+fn main() {
+    let path = std::env::args()
+        .nth(1)
+        .expect("usage: six_dof_states STATES.json");
+    let text = std::fs::read_to_string(&path).expect("readable states file");
+    let input: Value = serde_json::from_str(&text).expect("JSON");
+    let nodes = input["nodes"].as_u64().unwrap_or(20) as usize;
+    let repeat = input["repeat"].as_u64().unwrap_or(1).max(1) as usize;
+    let paper = Scenario::paper();
+    let model = SixDof::new(&paper.vehicle, &paper.environment);
+    let settings = DirectSettings::default();
+    let mut rows = Vec::new();
+    for state in input["states"].as_array().expect("states") {
+        let start: [f64; NS] = numbers(&state["start"]).try_into().expect("16 numbers");
+        let (tf_guess, mf_guess) = (
+            state["tf_guess_s"].as_f64().expect("tf_guess_s"),
+            state["mf_guess_kg"].as_f64().expect("mf_guess_kg"),
+        );
+        let mut times = Vec::with_capacity(repeat);
+        let mut last = None;
+        for _ in 0..repeat {
+            let t0 = Instant::now();
+            let nlp = Nlp6::six_dof(model.clone(), Mesh::global(nodes), start, &paper.terminal);
+            let w0 = nlp.straight_line(tf_guess, mf_guess);
+            let r = bellyflop::method::direct::solve_nlp(&nlp, &w0, None, &settings, &mut Silent);
+            times.push(t0.elapsed().as_secs_f64() * 1e3);
+            last = Some((nlp, r));
+        }
+        times.sort_by(f64::total_cmp);
+        let (nlp, r) = last.expect("one solve");
+        let states: Vec<f64> = (0..=nlp.n)
+            .flat_map(|k| (0..NX).map(move |s| (k, s)))
+            .map(|(k, s)| nlp.physical(s, r.w[nlp.idx(k, s)]))
+            .collect();
+        let controls: Vec<f64> = (0..nlp.n)
+            .flat_map(|i| (0..NU).map(move |j| (i, j)))
+            .map(|(i, j)| match j {
+                0 => nlp.thrust_n(&r.w, i),
+                _ => nlp.physical(NX + j, r.w[nlp.idx(i, NX + j)]),
+            })
+            .collect();
+        rows.push(json!({
+            "name": state["name"],
+            "status": r.status,
+            "iterations": r.history.len(),
+            "tf_s": nlp.tf_s(&r.w),
+            "mf_kg": nlp.physical(sx::M, r.w[nlp.idx(nlp.n, sx::M)]),
+            "time_ms": times[times.len() / 2],
+            "states": states,
+            "controls": controls,
+        }));
+    }
+    println!(
+        "{}",
+        json!({ "nodes": nodes, "repeat": repeat, "results": rows })
+    );
+}
