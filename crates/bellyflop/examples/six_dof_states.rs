@@ -1,7 +1,7 @@
 //! Solve 6-DoF states with the direct method (issue 38), for the
 //! side-by-side with IPOPT in `bench/six_dof_vs_ipopt.py`: reads a JSON
-//! file of states and guesses, solves each from the reference's straight
-//! line `repeat` times, and prints one JSON object with, per state, the
+//! file of states and guesses, solves each cold (`six_dof::solve_cold`: the
+//! planar default's coarse start, then N from its answer) `repeat` times, and prints one JSON object with, per state, the
 //! status, iterations, t_f, m_f, the median wall time of the solve (the
 //! transcription's construction and the guess included) and the answer.
 //!
@@ -14,7 +14,7 @@
 use std::time::Instant;
 
 use bellyflop::input::settings::DirectSettings;
-use bellyflop::method::direct::six_dof::{Nlp6, NS};
+use bellyflop::method::direct::six_dof::{self, Nlp6, NS};
 use bellyflop::method::observer::Silent;
 use bellyflop::problem::six_dof::{sx, SixDof, NU, NX};
 use bellyflop::{Mesh, Scenario};
@@ -51,8 +51,7 @@ fn main() {
         for _ in 0..repeat {
             let t0 = Instant::now();
             let nlp = Nlp6::six_dof(model.clone(), Mesh::global(nodes), start, &paper.terminal);
-            let w0 = nlp.straight_line(tf_guess, mf_guess);
-            let r = bellyflop::method::direct::solve_nlp(&nlp, &w0, None, &settings, &mut Silent);
+            let r = six_dof::solve_cold(&nlp, tf_guess, mf_guess, &settings, &mut Silent);
             times.push(t0.elapsed().as_secs_f64() * 1e3);
             last = Some((nlp, r));
         }
@@ -73,6 +72,9 @@ fn main() {
             "name": state["name"],
             "status": r.status,
             "iterations": r.history.len(),
+            "inertia_corrections": r.history.iter().filter(|h| h.inertia_correction > 0.0).count(),
+            "line_search_trials": r.history.iter().map(|h| h.line_search_trials).sum::<usize>(),
+            "restorations": r.history.iter().filter(|h| h.restoration).count(),
             "tf_s": nlp.tf_s(&r.w),
             "mf_kg": nlp.physical(sx::M, r.w[nlp.idx(nlp.n, sx::M)]),
             "time_ms": times[times.len() / 2],

@@ -176,7 +176,8 @@ fn the_references_answers_fly_as_the_reference_flies_them() {
 
 /// Issue 38: our interior point solves the 6-DoF transcription (the
 /// generic one behind the seam, with the nozzle cone and the rate disc as
-/// barrier rows) from the reference's straight line, and reaches IPOPT's
+/// barrier rows) from the reference's straight line, and cold (from a
+/// coarse answer, as the planar default), and reaches IPOPT's
 /// answers of the same transcription at the same mesh: the final mass
 /// within 0.5 kg (the issue's bound) and t_f within 1 ms, with every
 /// defect, box, row and landing slot held as tightly as IPOPT's own.
@@ -240,5 +241,20 @@ fn the_interior_point_reaches_the_references_6dof_answers() {
                 "{name}: t_f {tf} against {want_tf}"
             );
         }
+        // The cold solve (a coarse start at N = 10, then N = 20 from it)
+        // reaches the same answer.
+        let cold = bellyflop::method::direct::six_dof::solve_cold(
+            &nlp,
+            paper.discretization.tf_guess_s,
+            start[sx::M] - 5000.0,
+            &settings,
+            &mut Silent,
+        );
+        assert_eq!(cold.status, Status::Solved, "{name}: {}", cold.message);
+        let mf_cold = nlp.physical(sx::M, cold.w[nlp.idx(nlp.n, sx::M)]);
+        assert!(
+            (mf_cold - mf).abs() < 0.01,
+            "{name}: cold m_f {mf_cold} against {mf}"
+        );
     }
 }

@@ -255,7 +255,20 @@ pub fn add_term<const NS: usize, const NL: usize, const K: usize, const R: usize
 ) {
     let v: [Dual2SVec64<K>; K] =
         std::array::from_fn(|a| Dual2SVec64::from_re(p[inputs[a]]).derivative(a));
-    for (fc, &c) in term(v).iter().zip(&rows) {
+    add_values(scale, lambda, inputs, rows, &term(v), out);
+}
+
+/// Adds a term's values, as second-order duals over the K slots `inputs`,
+/// into the state rows `rows` of `out` (scaled: module docs).
+pub fn add_values<const NS: usize, const NL: usize, const K: usize>(
+    scale: &[f64; NL],
+    lambda: &[f64],
+    inputs: [usize; K],
+    rows: impl IntoIterator<Item = usize>,
+    values: &[Dual2SVec64<K>],
+    out: &mut PointDerivatives<NS, NL>,
+) {
+    for (fc, c) in values.iter().zip(rows) {
         let inv = 1.0 / scale[c];
         out.f[c] += fc.re * inv;
         if let Some(g) = &fc.v1.0 {
@@ -276,6 +289,34 @@ pub fn add_term<const NS: usize, const NL: usize, const K: usize, const R: usize
             }
         }
     }
+}
+
+/// A second-order dual over K directions as one over L ⊇ them: direction
+/// a becomes direction `at[a]` (the others' derivatives zero). For a
+/// quantity that several terms share, differentiated once over its own few
+/// inputs (the 6-DoF rotation R(q)).
+pub fn embed<const K: usize, const L: usize>(d: &Dual2SVec64<K>, at: [usize; K]) -> Dual2SVec64<L> {
+    let v1 = d.v1.0.as_ref().map(|g| {
+        let mut o = nalgebra::SMatrix::<f64, 1, L>::zeros();
+        for a in 0..K {
+            o[at[a]] = g[a];
+        }
+        o
+    });
+    let v2 = d.v2.0.as_ref().map(|h| {
+        let mut o = nalgebra::SMatrix::<f64, L, L>::zeros();
+        for a in 0..K {
+            for b in 0..K {
+                o[(at[a], at[b])] = h[(a, b)];
+            }
+        }
+        o
+    });
+    Dual2SVec64::new(
+        d.re,
+        num_dual::Derivative::new(v1),
+        num_dual::Derivative::new(v2),
+    )
 }
 
 /// The 6-DoF model, term by term ([`crate::problem::six_dof::rhs`] is the
@@ -313,17 +354,27 @@ impl Differentiable for crate::problem::six_dof::SixDof {
         add_term(p, scale, lambda, chi, delta, |x| x, &mut out);
         let alpha = self.planar.alpha_spm;
         add_term(p, scale, lambda, [t], [m], |[x]| [x * alpha], &mut out);
-        // V̇ = T·R·d/m + D/m − g.
-        let inputs = [q[0], q[1], q[2], q[3], delta[0], delta[1], t, m];
-        add_term(
-            p,
-            scale,
-            lambda,
-            inputs,
-            v,
-            |x| six::thrust_acceleration([x[0], x[1], x[2], x[3]], [x[4], x[5]], x[6], x[7]),
-            &mut out,
+        // V̇ = T·R·d/m + D/m − g, and the drag's ω̇ below: R(q), d(δ) and
+        // D(V) each over their own inputs, once, then embedded into the
+        // 8 inputs of the two terms that share R.
+        type D4 = Dual2SVec64<4>;
+        type D8 = Dual2SVec64<8>;
+        let qd: [D4; 4] = std::array::from_fn(|a| D4::from_re(p[q[a]]).derivative(a));
+        let r4 = six::rotation(qd);
+        let r8 = |at: [usize; 4]| -> [[D8; 3]; 3] {
+            std::array::from_fn(|i| std::array::from_fn(|j| embed(&r4[i][j], at)))
+        };
+        let d2: [Dual2SVec64<2>; 2] =
+            std::array::from_fn(|a| Dual2SVec64::from_re(p[delta[a]]).derivative(a));
+        let dir = six::thrust_direction(d2[0], d2[1]);
+        let a = six::thrust_acceleration_from(
+            &r8([0, 1, 2, 3]),
+            std::array::from_fn(|i| embed(&dir[i], [4, 5])),
+            D8::from_re(p[t]).derivative(6),
+            D8::from_re(p[m]).derivative(7),
         );
+        let inputs = [q[0], q[1], q[2], q[3], delta[0], delta[1], t, m];
+        add_values(scale, lambda, inputs, v, &a, &mut out);
         add_term(
             p,
             scale,
@@ -345,23 +396,17 @@ impl Differentiable for crate::problem::six_dof::SixDof {
             |x| six::thrust_angular_acceleration(self, [x[0], x[1]], x[2], x[3]),
             &mut out,
         );
-        let inputs = [v[0], v[1], v[2], q[0], q[1], q[2], q[3], m];
-        add_term(
-            p,
-            scale,
-            lambda,
-            inputs,
-            rates,
-            |x| {
-                six::drag_angular_acceleration(
-                    self,
-                    [x[0], x[1], x[2]],
-                    [x[3], x[4], x[5], x[6]],
-                    x[7],
-                )
-            },
-            &mut out,
+        let v3: [Dual2SVec64<3>; 3] =
+            std::array::from_fn(|a| Dual2SVec64::from_re(p[v[a]]).derivative(a));
+        let drag = six::drag_force(self, v3);
+        let alpha = six::drag_angular_acceleration_from(
+            self,
+            &r8([3, 4, 5, 6]),
+            std::array::from_fn(|i| embed(&drag[i], [0, 1, 2])),
+            D8::from_re(p[m]).derivative(7),
         );
+        let inputs = [v[0], v[1], v[2], q[0], q[1], q[2], q[3], m];
+        add_values(scale, lambda, inputs, rates, &alpha, &mut out);
         add_term(
             p,
             scale,

@@ -116,7 +116,7 @@ fn cross<D: DualNum<Primitive = f64> + Copy>(a: [D; 3], b: [D; 3]) -> [D; 3] {
 }
 
 /// R(q/|q|), the rotation from the body to the inertial frame.
-fn rotation<D: DualNum<Primitive = f64> + Copy>(q: [D; 4]) -> [[D; 3]; 3] {
+pub fn rotation<D: DualNum<Primitive = f64> + Copy>(q: [D; 4]) -> [[D; 3]; 3] {
     let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
     let s = n2.recip() * 2.0;
     let [w, x, y, z] = q;
@@ -180,7 +180,18 @@ pub fn thrust_acceleration<D: DualNum<Primitive = f64> + Copy>(
     m: D,
 ) -> [D; 3] {
     let d = thrust_direction(delta[0], delta[1]);
-    let f = apply(&rotation(q), std::array::from_fn(|i| d[i] * thrust));
+    thrust_acceleration_from(&rotation(q), d, thrust, m)
+}
+
+/// [`thrust_acceleration`] from R and d, evaluated apart (a transcription
+/// differentiates R once per point for two terms).
+pub fn thrust_acceleration_from<D: DualNum<Primitive = f64> + Copy>(
+    r: &[[D; 3]; 3],
+    d: [D; 3],
+    thrust: D,
+    m: D,
+) -> [D; 3] {
+    let f = apply(r, std::array::from_fn(|i| d[i] * thrust));
     std::array::from_fn(|i| f[i] / m)
 }
 
@@ -216,9 +227,19 @@ pub fn drag_angular_acceleration<D: DualNum<Primitive = f64> + Copy>(
     q: [D; 4],
     m: D,
 ) -> [D; 3] {
+    drag_angular_acceleration_from(model, &rotation(q), drag_force(model, v), m)
+}
+
+/// [`drag_angular_acceleration`] from R and the drag D, evaluated apart.
+pub fn drag_angular_acceleration_from<D: DualNum<Primitive = f64> + Copy>(
+    model: &SixDof,
+    r: &[[D; 3]; 3],
+    drag: [D; 3],
+    m: D,
+) -> [D; 3] {
     let p = &model.planar;
     let arm = [D::zero(), D::zero(), D::from(p.cp_m - p.cg_m)];
-    let tau = cross(arm, apply_transposed(&rotation(q), drag_force(model, v)));
+    let tau = cross(arm, apply_transposed(r, drag));
     let j = inertia(model, m);
     std::array::from_fn(|i| tau[i] / j[i])
 }

@@ -1,12 +1,17 @@
 //! A scaled vector of one transcription carried onto another's mesh: the
 //! coarse phase's answer onto the scenario's mesh.
 
-use crate::method::direct::nlp::{Nlp, NL, NS};
+use crate::collocation::derivatives::Differentiable;
+use crate::method::direct::nlp::Transcription;
 
 /// A scaled vector of `from` carried onto `to`'s mesh: states by the state
 /// interpolant (per interval, degree n_k), controls by the control
 /// interpolant, t_f as is.
-pub fn interpolate(from: &Nlp, w: &[f64], to: &Nlp) -> Vec<f64> {
+pub fn interpolate<M: Differentiable, const NS: usize, const NL: usize>(
+    from: &Transcription<M, NS, NL>,
+    w: &[f64],
+    to: &Transcription<M, NS, NL>,
+) -> Vec<f64> {
     let mut out = Vec::new();
     interpolate_into(from, w, to, &mut out, &mut Vec::new());
     out
@@ -14,10 +19,10 @@ pub fn interpolate(from: &Nlp, w: &[f64], to: &Nlp) -> Vec<f64> {
 
 /// [`interpolate`] into `out`, with `values` as its work vector, both in
 /// their own storage.
-pub(super) fn interpolate_into(
-    from: &Nlp,
+pub(super) fn interpolate_into<M: Differentiable, const NS: usize, const NL: usize>(
+    from: &Transcription<M, NS, NL>,
     w: &[f64],
-    to: &Nlp,
+    to: &Transcription<M, NS, NL>,
     out: &mut Vec<f64>,
     values: &mut Vec<f64>,
 ) {

@@ -5,9 +5,15 @@
 
 use crate::collocation::mesh::Mesh;
 use crate::input::scenario::TerminalState;
+use crate::input::settings::DirectSettings;
+use crate::method::direct::driver::NlpResult;
+use crate::method::direct::mesh_transfer::interpolate;
 use crate::method::direct::nlp::Transcription;
+use crate::method::direct::{solve_nlp, WARM_MU};
+use crate::method::observer::Observer;
 use crate::problem::model::Dynamics;
 use crate::problem::six_dof::{self, su, sx, SixDof};
+use crate::solution::Status;
 
 /// States of the 6-DoF model at a node.
 pub const NS: usize = six_dof::NX;
@@ -126,6 +132,65 @@ impl Nlp6 {
         w[tf] = tf_s / self.tf_scale;
         w
     }
+}
+
+/// The cold solve of a 6-DoF problem, in the planar cold solve's phases
+/// ([`crate::method::direct::cold`]): when the mesh has at least twice
+/// `settings.coarse_nodes` points, first a global mesh of that many from
+/// the straight line to `settings.coarse_tolerance`, then `nlp`'s mesh from
+/// its answer at μ_0 = [`WARM_MU`]; from the straight line when there is no
+/// coarse phase or its fine phase fails. The iterations of every phase are
+/// in the result's history.
+pub fn solve_cold(
+    nlp: &Nlp6,
+    tf_guess_s: f64,
+    final_mass_guess_kg: f64,
+    settings: &DirectSettings,
+    observer: &mut dyn Observer,
+) -> NlpResult {
+    let straight = |nlp: &Nlp6, settings: &DirectSettings, observer: &mut dyn Observer| {
+        let w0 = nlp.straight_line(tf_guess_s, final_mass_guess_kg);
+        solve_nlp(nlp, &w0, None, settings, observer)
+    };
+    let coarse_nodes = settings.coarse_nodes;
+    if coarse_nodes < 4 || 2 * coarse_nodes > nlp.n {
+        return straight(nlp, settings, observer);
+    }
+    let coarse = Nlp6::six_dof(
+        nlp.model.clone(),
+        Mesh::global(coarse_nodes),
+        nlp.x0,
+        &nlp.target,
+    );
+    let loose = DirectSettings {
+        tolerance: settings.coarse_tolerance,
+        ..settings.clone()
+    };
+    let first = straight(&coarse, &loose, observer);
+    let mut history = first.history;
+    let left = |history: &Vec<_>| settings.max_iterations.saturating_sub(history.len());
+    if first.status == Status::Solved && left(&history) > 0 {
+        let fine = DirectSettings {
+            mu_init: WARM_MU,
+            max_iterations: left(&history),
+            ..settings.clone()
+        };
+        let w0 = interpolate(&coarse, &first.w, nlp);
+        let mut r = solve_nlp(nlp, &w0, None, &fine, observer);
+        history.append(&mut r.history);
+        if r.status == Status::Solved {
+            r.history = history;
+            return r;
+        }
+    }
+    let rest = DirectSettings {
+        max_iterations: left(&history).max(1),
+        ..settings.clone()
+    };
+    let mut r = straight(nlp, &rest, observer);
+    history.append(&mut r.history);
+    r.history = history;
+    r
 }
 
 #[cfg(test)]
