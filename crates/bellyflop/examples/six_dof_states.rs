@@ -8,7 +8,8 @@
 //!     cargo run --release -p bellyflop --example six_dof_states -- STATES.json
 //!
 //! STATES.json: {"nodes": 20, "repeat": 5, "states": [{"name": ...,
-//! "start": [16 numbers], "tf_guess_s": ..., "mf_guess_kg": ...}, ...]}.
+//! "start": [16 numbers], "tf_guess_s": ..., "mf_guess_kg": ...}, ...],
+//! "direct": {...}} (the last optional: `[solver.direct]`'s settings).
 //! The vehicle and the landing are the paper's.
 
 use std::time::Instant;
@@ -38,7 +39,12 @@ fn main() {
     let repeat = input["repeat"].as_u64().unwrap_or(1).max(1) as usize;
     let paper = Scenario::paper();
     let model = SixDof::new(&paper.vehicle, &paper.environment);
-    let settings = DirectSettings::default();
+    // Optional "direct": settings of the direct method, as a scenario's
+    // `[solver.direct]` (the defaults otherwise).
+    let settings: DirectSettings = match input.get("direct") {
+        Some(v) => serde_json::from_value(v.clone()).expect("direct settings"),
+        None => DirectSettings::default(),
+    };
     let mut rows = Vec::new();
     for state in input["states"].as_array().expect("states") {
         let start: [f64; NS] = numbers(&state["start"]).try_into().expect("16 numbers");
@@ -72,6 +78,7 @@ fn main() {
             "name": state["name"],
             "status": r.status,
             "iterations": r.history.len(),
+            "coarse_iterations": r.history.iter().filter(|h| h.mesh_nodes < nodes).count(),
             "inertia_corrections": r.history.iter().filter(|h| h.inertia_correction > 0.0).count(),
             "line_search_trials": r.history.iter().map(|h| h.line_search_trials).sum::<usize>(),
             "restorations": r.history.iter().filter(|h| h.restoration).count(),

@@ -199,14 +199,17 @@ pub fn path_row_derivatives<M: Dynamics, const NL: usize, const NP: usize>(
 /// path-row inputs (stable Rust cannot size the dual numbers from an
 /// associated constant, so each model names them once here).
 pub trait Differentiable: Dynamics {
-    /// [`point_derivatives`] at the model's count of nonlinear inputs.
+    /// [`point_derivatives`] at the model's count of nonlinear inputs, into
+    /// `out` (overwritten: at the 6-DoF sizes it is 6 kB, which a return
+    /// by value copied twice per point).
     fn point_derivatives<const NS: usize, const NL: usize>(
         &self,
         p: &[f64; NL],
         scale: &[f64; NL],
         lambda: &[f64],
         linear: &[(usize, usize, f64)],
-    ) -> PointDerivatives<NS, NL>;
+        out: &mut PointDerivatives<NS, NL>,
+    );
 
     /// [`path_row_derivatives`] at the model's count of path-row inputs.
     fn path_row_derivatives<const NL: usize>(
@@ -224,8 +227,9 @@ impl Differentiable for crate::problem::dynamics::Model {
         scale: &[f64; NL],
         lambda: &[f64],
         linear: &[(usize, usize, f64)],
-    ) -> PointDerivatives<NS, NL> {
-        point_derivatives::<Self, NS, NL, 6>(self, p, scale, lambda, linear)
+        out: &mut PointDerivatives<NS, NL>,
+    ) {
+        *out = point_derivatives::<Self, NS, NL, 6>(self, p, scale, lambda, linear);
     }
 
     /// No path rows in the plane (the gimbal's bounds are boxes).
@@ -331,12 +335,15 @@ impl Differentiable for crate::problem::six_dof::SixDof {
         scale: &[f64; NL],
         lambda: &[f64],
         _linear: &[(usize, usize, f64)],
-    ) -> PointDerivatives<NS, NL> {
+        out: &mut PointDerivatives<NS, NL>,
+    ) {
         use crate::problem::six_dof::{self as six, su, sx, NX};
         const {
             assert!(NS == NX && NL >= NX + six::NU);
         }
-        let mut out = PointDerivatives::<NS, NL>::default();
+        out.f = [0.0; NS];
+        out.jac = [[0.0; NL]; NS];
+        out.hess = [[0.0; NL]; NL];
         let (v, q, w, m) = (
             [sx::VX, sx::VY, sx::VZ],
             [sx::Q, sx::Q + 1, sx::Q + 2, sx::Q + 3],
@@ -350,10 +357,10 @@ impl Differentiable for crate::problem::six_dof::SixDof {
         );
         let (pos, rates) = ([sx::X, sx::Y, sx::Z], w);
         // ṙ = V, δ̇ = χ and ṁ = −T/(I_sp·g0): linear.
-        add_term(p, scale, lambda, v, pos, |x| x, &mut out);
-        add_term(p, scale, lambda, chi, delta, |x| x, &mut out);
+        add_term(p, scale, lambda, v, pos, |x| x, out);
+        add_term(p, scale, lambda, chi, delta, |x| x, out);
         let alpha = self.planar.alpha_spm;
-        add_term(p, scale, lambda, [t], [m], |[x]| [x * alpha], &mut out);
+        add_term(p, scale, lambda, [t], [m], |[x]| [x * alpha], out);
         // V̇ = T·R·d/m + D/m − g, and the drag's ω̇ below: R(q), d(δ) and
         // D(V) each over their own inputs, once, then embedded into the
         // 8 inputs of the two terms that share R.
@@ -374,7 +381,7 @@ impl Differentiable for crate::problem::six_dof::SixDof {
             D8::from_re(p[m]).derivative(7),
         );
         let inputs = [q[0], q[1], q[2], q[3], delta[0], delta[1], t, m];
-        add_values(scale, lambda, inputs, v, &a, &mut out);
+        add_values(scale, lambda, inputs, v, &a, out);
         add_term(
             p,
             scale,
@@ -382,7 +389,7 @@ impl Differentiable for crate::problem::six_dof::SixDof {
             [v[0], v[1], v[2], m],
             v,
             |x| six::drag_acceleration(self, [x[0], x[1], x[2]], x[3]),
-            &mut out,
+            out,
         );
         out.f[sx::VZ] -= self.planar.g0_mps2 / scale[sx::VZ];
         // ω̇: the thrust's, the drag's and the gyroscopic terms.
@@ -394,7 +401,7 @@ impl Differentiable for crate::problem::six_dof::SixDof {
             inputs,
             rates,
             |x| six::thrust_angular_acceleration(self, [x[0], x[1]], x[2], x[3]),
-            &mut out,
+            out,
         );
         let v3: [Dual2SVec64<3>; 3] =
             std::array::from_fn(|a| Dual2SVec64::from_re(p[v[a]]).derivative(a));
@@ -406,7 +413,7 @@ impl Differentiable for crate::problem::six_dof::SixDof {
             D8::from_re(p[m]).derivative(7),
         );
         let inputs = [v[0], v[1], v[2], q[0], q[1], q[2], q[3], m];
-        add_values(scale, lambda, inputs, rates, &alpha, &mut out);
+        add_values(scale, lambda, inputs, rates, &alpha, out);
         add_term(
             p,
             scale,
@@ -414,7 +421,7 @@ impl Differentiable for crate::problem::six_dof::SixDof {
             [w[0], w[1], w[2], m],
             rates,
             |x| six::gyroscopic_angular_acceleration(self, [x[0], x[1], x[2]], x[3]),
-            &mut out,
+            out,
         );
         // q̇.
         let inputs = [q[0], q[1], q[2], q[3], w[0], w[1], w[2]];
@@ -425,9 +432,8 @@ impl Differentiable for crate::problem::six_dof::SixDof {
             inputs,
             q,
             |x| six::quaternion_rate(self, [x[0], x[1], x[2], x[3]], [x[4], x[5], x[6]]),
-            &mut out,
+            out,
         );
-        out
     }
 
     fn path_row_derivatives<const NL: usize>(
@@ -567,7 +573,8 @@ mod tests {
             }
             let lambda: [f64; NX6] = std::array::from_fn(|c| ((k + c) as f64 * 1.3).cos());
             let whole = point_derivatives::<SixDof, NX6, NL6, 14>(&m, &p, &scale, &lambda, &linear);
-            let split = Differentiable::point_derivatives::<NX6, NL6>(&m, &p, &scale, &lambda, &[]);
+            let mut split = PointDerivatives::default();
+            Differentiable::point_derivatives::<NX6, NL6>(&m, &p, &scale, &lambda, &[], &mut split);
             let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * (1.0 + a.abs().max(b.abs()));
             for c in 0..NX6 {
                 assert!(

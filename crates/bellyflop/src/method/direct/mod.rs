@@ -163,15 +163,16 @@ mod tests {
 
     /// ∇_w (f + λᵀc) of the transcription, from its point derivatives.
     fn lagrangian_gradient(nlp: &Nlp, w: &[f64], lambda: &[f64]) -> Vec<f64> {
-        let jac: Vec<_> = (0..nlp.n)
+        let derivs: Vec<_> = (0..nlp.n)
             .map(|i| {
-                nlp.point_derivatives(w, i, &lambda[i * NS..(i + 1) * NS])
-                    .jac
+                let mut d = Default::default();
+                nlp.point_derivatives(w, i, &lambda[i * NS..(i + 1) * NS], &mut d);
+                d
             })
             .collect();
         let mut g = vec![0.0; nlp.n_var()];
         nlp.objective_gradient(w, &mut g);
-        nlp.add_jt_lambda(w, &jac, lambda, &mut g);
+        nlp.add_jt_lambda(w, &derivs, lambda, &mut g);
         g
     }
 
@@ -219,7 +220,11 @@ mod tests {
                 .map(|r| ((r as f64) * 0.91).sin())
                 .collect();
             let derivs: Vec<_> = (0..nlp.n)
-                .map(|i| nlp.point_derivatives(&w, i, &lambda[i * NS..(i + 1) * NS]))
+                .map(|i| {
+                    let mut d = Default::default();
+                    nlp.point_derivatives(&w, i, &lambda[i * NS..(i + 1) * NS], &mut d);
+                    d
+                })
                 .collect();
             let mut kkt = KktMatrix::zeros(&nlp);
             lagrangian_blocks(&nlp, &w, &lambda, &derivs, &mut kkt);

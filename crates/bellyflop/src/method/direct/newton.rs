@@ -71,7 +71,6 @@ pub(super) struct Workspace<const NS: usize, const NL: usize> {
     pub(super) kkt: KktMatrix<NS, NL>,
     pub(super) solver: KktSolver<NS, NL>,
     pub(super) derivs: Vec<PointDerivatives<NS, NL>>,
-    pub(super) jac: Vec<[[f64; NL]; NS]>,
     pub(super) c: Vec<f64>,
     pub(super) c_trial: Vec<f64>,
     pub(super) grad: Vec<f64>,
@@ -114,7 +113,6 @@ impl<const NS: usize, const NL: usize> Workspace<NS, NL> {
                 };
                 nlp.n
             ],
-            jac: vec![[[0.0; NL]; NS]; nlp.n],
             c: vec![0.0; nc],
             c_trial: vec![0.0; nc],
             grad: vec![0.0; nv],
@@ -150,7 +148,6 @@ impl<const NS: usize, const NL: usize> Workspace<NS, NL> {
             jac: [[0.0; NL]; NS],
             hess: [[0.0; NL]; NL],
         });
-        self.jac.fill([[0.0; NL]; NS]);
         for v in [
             &mut self.c,
             &mut self.c_trial,
@@ -236,11 +233,8 @@ impl<'a, M: Differentiable, const NS: usize, const NL: usize> Newton<'a, M, NS, 
     /// Derivatives at every collocation point, with multipliers λ.
     pub(super) fn evaluate(&mut self, w: &[f64], lambda: &[f64]) {
         for i in 0..self.nlp.n {
-            let d = self
-                .nlp
-                .point_derivatives(w, i, &lambda[i * NS..(i + 1) * NS]);
-            self.ws.jac[i] = d.jac;
-            self.ws.derivs[i] = d;
+            let l = &lambda[i * NS..(i + 1) * NS];
+            self.nlp.point_derivatives(w, i, l, &mut self.ws.derivs[i]);
         }
         self.nlp.defects(w, &mut self.ws.c);
         self.rows.evaluate(self.nlp, w);
@@ -250,7 +244,7 @@ impl<'a, M: Differentiable, const NS: usize, const NL: usize> Newton<'a, M, NS, 
     pub(super) fn lagrangian_gradient(&mut self, w: &[f64], lambda: &[f64]) {
         self.nlp.objective_gradient(w, &mut self.ws.grad);
         self.nlp
-            .add_jt_lambda(w, &self.ws.jac, lambda, &mut self.ws.grad);
+            .add_jt_lambda(w, &self.ws.derivs, lambda, &mut self.ws.grad);
     }
     /// Optimality error E_μ (Eq. 5) of the iterate; ws.grad must hold ∇f + Jᵀλ.
     pub(super) fn optimality_error(&self, it: &Iterate, mu: f64) -> (f64, f64, f64) {

@@ -493,11 +493,11 @@ impl<M: Differentiable, const NS: usize, const NL: usize> Transcription<M, NS, N
         w: &[f64],
         i: usize,
         lambda: &[f64],
-    ) -> PointDerivatives<NS, NL> {
+        out: &mut PointDerivatives<NS, NL>,
+    ) {
         let p = self.physical_node(w, i);
-        let mut out = self
-            .model
-            .point_derivatives::<NS, NL>(&p, &self.scale, lambda, &self.linear);
+        self.model
+            .point_derivatives::<NS, NL>(&p, &self.scale, lambda, &self.linear, out);
         // The slacks enter as the thrust does, with signs e = (+1, −1): their
         // columns are e·(T's column), and ∇² rows and columns likewise.
         for (s, e) in [(Self::ABOVE, 1.0), (Self::BELOW, -1.0)] {
@@ -519,14 +519,14 @@ impl<M: Differentiable, const NS: usize, const NL: usize> Transcription<M, NS, N
                 out.hess[q][s] = v;
             }
         }
-        out
     }
 
-    /// Jᵀλ of the defects (full-vector gradient), added into `out`.
+    /// Jᵀλ of the defects (full-vector gradient), added into `out`, from
+    /// the points' Jacobians.
     pub fn add_jt_lambda(
         &self,
         w: &[f64],
-        jac: &[[[f64; NL]; NS]],
+        derivs: &[PointDerivatives<NS, NL>],
         lambda: &[f64],
         out: &mut [f64],
     ) {
@@ -543,7 +543,7 @@ impl<M: Differentiable, const NS: usize, const NL: usize> Transcription<M, NS, N
             let f = self.rates(w, i);
             for c in 0..NS {
                 for s in 0..NL {
-                    out[self.idx(i, s)] -= half_tf * jac[i][c][s] * l[c];
+                    out[self.idx(i, s)] -= half_tf * derivs[i].jac[c][s] * l[c];
                 }
                 out[tf] -= 0.5 * self.tf_scale * f[c] * l[c];
             }
@@ -772,6 +772,13 @@ mod tests {
         Nlp::new(&s, &SolverSettings::default())
     }
 
+    /// The point derivatives at point i, by value.
+    fn derivs(nlp: &Nlp, w: &[f64], i: usize, lambda: &[f64]) -> PointDerivatives {
+        let mut d = PointDerivatives::default();
+        nlp.point_derivatives(w, i, lambda, &mut d);
+        d
+    }
+
     /// A generic interior point: the straight line, perturbed.
     fn point(nlp: &Nlp) -> Vec<f64> {
         let mut w = nlp.straight_line(11.0, 114_000.0);
@@ -789,7 +796,7 @@ mod tests {
         let w = point(&nlp);
         let lambda = [0.0; NS];
         for i in 0..nlp.n {
-            let d = nlp.point_derivatives(&w, i, &lambda);
+            let d = derivs(&nlp, &w, i, &lambda);
             for (a, b) in d.f.iter().zip(nlp.rates(&w, i)) {
                 assert!((a - b).abs() <= 1e-15 * (1.0 + b.abs()));
             }
@@ -817,7 +824,7 @@ mod tests {
         let w = point(&nlp);
         let lambda = [0.3, -1.2, 0.8, 2.1, -0.4, 1.7, -0.9, 0.6];
         for i in 0..nlp.n {
-            let d = nlp.point_derivatives(&w, i, &lambda);
+            let d = derivs(&nlp, &w, i, &lambda);
             for r in 0..NL {
                 for s in 0..NL {
                     assert_eq!(d.hess[r][s], d.hess[s][r], "symmetric");
@@ -827,8 +834,8 @@ mod tests {
                 wp[nlp.idx(i, r)] += h;
                 wm[nlp.idx(i, r)] -= h;
                 let (jp, jm) = (
-                    nlp.point_derivatives(&wp, i, &lambda).jac,
-                    nlp.point_derivatives(&wm, i, &lambda).jac,
+                    derivs(&nlp, &wp, i, &lambda).jac,
+                    derivs(&nlp, &wm, i, &lambda).jac,
                 );
                 for s in 0..NL {
                     let fd: f64 = (0..NS)
