@@ -21,14 +21,15 @@
 use std::hint::black_box;
 use std::time::Duration;
 
+use bellyflop::collocation::derivatives::{Differentiable, PointDerivatives};
 use bellyflop::collocation::mesh::Mesh;
 use bellyflop::input::scenario::Scenario;
 use bellyflop::input::settings::DirectSettings;
 use bellyflop::method::direct::kkt::{KktMatrix, KktSolver, Layout, ReducedPath};
-use bellyflop::method::direct::nlp::{Nlp, NL, NS};
+use bellyflop::method::direct::nlp::{Nlp, Transcription};
+use bellyflop::method::direct::six_dof::{solve_cold, Nlp6, NL as NL6, NS as NS6};
 use bellyflop::method::direct::{self, lagrangian_blocks};
 use bellyflop::method::observer::Silent;
-use bellyflop::problem::model::Dynamics;
 use bellyflop::problem::six_dof::{self, SixDof};
 use bellyflop::{Case, Method, Status};
 use clarabel::algebra::CscMatrix;
@@ -52,16 +53,31 @@ fn system(n: usize, intervals: usize) -> (Nlp, KktMatrix) {
     let nlp = Nlp::new(&s.scenario, &s.solver);
     let d = &s.scenario.discretization;
     let w0 = nlp.straight_line(d.tf_guess_s, d.final_mass_guess_kg);
+    let kkt = newton_system(&nlp, &w0);
+    (nlp, kkt)
+}
+
+/// The Newton system of `nlp` at the 5th iterate of its solve from `w0`:
+/// the Hessian of the Lagrangian, the barrier terms μ/s² (μ = 0.1) and the
+/// defect Jacobian.
+fn newton_system<M: Differentiable, const NS: usize, const NL: usize>(
+    nlp: &Transcription<M, NS, NL>,
+    w0: &[f64],
+) -> KktMatrix<NS, NL> {
     let settings = DirectSettings {
         max_iterations: 5,
         ..DirectSettings::default()
     };
-    let r = direct::solve_nlp(&nlp, &w0, None, &settings, &mut Silent);
+    let r = direct::solve_nlp(nlp, w0, None, &settings, &mut Silent);
     let derivs: Vec<_> = (0..nlp.n)
-        .map(|i| nlp.point_derivatives(&r.w, i, &r.lambda[i * NS..(i + 1) * NS]))
+        .map(|i| {
+            let mut d = PointDerivatives::default();
+            nlp.point_derivatives(&r.w, i, &r.lambda[i * NS..(i + 1) * NS], &mut d);
+            d
+        })
         .collect();
-    let mut kkt = KktMatrix::zeros(&nlp);
-    lagrangian_blocks(&nlp, &r.w, &r.lambda, &derivs, &mut kkt);
+    let mut kkt = KktMatrix::zeros(nlp);
+    lagrangian_blocks(nlp, &r.w, &r.lambda, &derivs, &mut kkt);
     let mu = 0.1;
     let sigma = |j: usize| {
         let mut s = 1e-9;
@@ -81,7 +97,7 @@ fn system(n: usize, intervals: usize) -> (Nlp, KktMatrix) {
         }
     }
     kkt.h_tt = sigma(nlp.tf_idx());
-    (nlp, kkt)
+    kkt
 }
 
 /// Benchmarks one Newton system two ways, as `structured/{id}` (every
@@ -185,103 +201,46 @@ fn cold_solve(c: &mut Criterion) {
     g.finish();
 }
 
-const NS6: usize = six_dof::NX;
-/// A 6-DoF node: 16 states, 3 controls and the two thrust slacks.
-const NL6: usize = NS6 + six_dof::NU + 2;
-
-/// The 6-DoF transcription's shape (no 6-DoF NLP exists yet): node 0's
-/// states fixed, node N's controls and the model's landing slots fixed,
-/// the slacks fixed, x eliminated.
-struct SixDofShape {
-    mesh: Mesh,
-    d_cols: Vec<Vec<(usize, f64)>>,
-    fixed: Vec<bool>,
+/// The first seeded 3-D state of IPOPT's 6-DoF fixture
+/// (`tests/data/six_dof_answers.json`), and the three states' names and
+/// starts.
+fn six_dof_starts() -> Vec<(String, [f64; NS6])> {
+    let data: serde_json::Value =
+        serde_json::from_str(include_str!("../tests/data/six_dof_answers.json")).unwrap();
+    data["answers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| {
+            let start: Vec<f64> = a["start"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect();
+            (
+                a["name"].as_str().unwrap().to_string(),
+                start.try_into().unwrap(),
+            )
+        })
+        .collect()
 }
 
-impl Layout<NS6, NL6> for SixDofShape {
-    fn n(&self) -> usize {
-        self.mesh.n
-    }
-    fn idx(&self, k: usize, s: usize) -> usize {
-        k * NL6 + s
-    }
-    fn tf_idx(&self) -> usize {
-        (self.mesh.n + 1) * NL6
-    }
-    fn n_var(&self) -> usize {
-        self.tf_idx() + 1
-    }
-    fn n_con(&self) -> usize {
-        self.mesh.n * NS6
-    }
-    fn is_fixed(&self, j: usize) -> bool {
-        self.fixed[j]
-    }
-    fn mesh(&self) -> &Mesh {
-        &self.mesh
-    }
-    fn d_cols(&self) -> &[Vec<(usize, f64)>] {
-        &self.d_cols
-    }
-    fn eliminates_x(&self) -> bool {
-        true
-    }
-}
-
-/// A Newton system of the 6-DoF shape on `n` points over `intervals`:
-/// seeded node blocks AᵀA/NL + I (the barrier makes them definite at most
-/// iterates; the cost does not depend on the values), x's rows zero.
-fn six_dof_system(n: usize, intervals: usize) -> (SixDofShape, KktMatrix<NS6, NL6>) {
-    let mesh = Mesh::uniform(n, intervals);
-    let d_cols = mesh.d_columns();
+/// The 6-DoF transcription of `start` on `n` points over `intervals`.
+fn six_dof_nlp(start: [f64; NS6], n: usize, intervals: usize) -> Nlp6 {
     let s = Scenario::paper();
     let model = SixDof::new(&s.vehicle, &s.environment);
-    let fixed = (0..(n + 1) * NL6 + 1)
-        .map(|j| {
-            let (k, slot) = (j / NL6, j % NL6);
-            k <= n
-                && ((k == 0 && slot < NS6)
-                    || (k == n && slot >= NS6)
-                    || slot >= NL6 - 2
-                    || (k == n && model.terminal_fixed(&s.terminal, slot).is_some()))
-        })
-        .collect();
-    let shape = SixDofShape {
-        mesh,
-        d_cols,
-        fixed,
-    };
-    let mut seed = 38u64;
-    let mut next = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
-    let mut kkt = KktMatrix::zeros(&shape);
-    for w in &mut kkt.w {
-        let a: [[f64; NL6]; NL6] = std::array::from_fn(|_| std::array::from_fn(|_| next()));
-        for r in 0..NL6 {
-            for c in 0..NL6 {
-                w[r][c] = (0..NL6).map(|q| a[r][q] * a[c][q]).sum::<f64>() / NL6 as f64
-                    + if r == c { 1.0 } else { 0.0 };
-            }
-        }
-    }
-    for node in 0..n {
-        for r in 0..NL6 {
-            kkt.w[node][0][r] = 0.0;
-            kkt.w[node][r][0] = 0.0;
-        }
-        kkt.b[node] = std::array::from_fn(|_| std::array::from_fn(|_| next()));
-        kkt.j_t[node] = std::array::from_fn(|_| next());
-        for c in 0..NS6 {
-            kkt.b[node][c][0] = 0.0;
-        }
-    }
-    kkt.h_tt = 5.0;
-    kkt.delta_c = 1e-9;
-    (shape, kkt)
+    Nlp6::six_dof(model, Mesh::uniform(n, intervals), start, &s.terminal)
+}
+
+/// The 6-DoF Newton system at the 5th iterate of the solve of the
+/// fixture's first state from the straight line.
+fn six_dof_system(n: usize, intervals: usize) -> (Nlp6, KktMatrix<NS6, NL6>) {
+    let (_, start) = six_dof_starts().remove(0);
+    let nlp = six_dof_nlp(start, n, intervals);
+    let w0 = nlp.straight_line(12.0, start[six_dof::sx::M] - 5000.0);
+    let kkt = newton_system(&nlp, &w0);
+    (nlp, kkt)
 }
 
 /// The structured solve and QDLDL at the 6-DoF model's sizes (issue 38),
@@ -292,20 +251,55 @@ fn kkt_six_dof(c: &mut Criterion) {
     g.warm_up_time(Duration::from_secs(1));
     g.measurement_time(Duration::from_secs(3));
     for (n, intervals) in [(20, 1), (40, 8)] {
-        let (shape, kkt) = six_dof_system(n, intervals);
+        let (nlp, kkt) = six_dof_system(n, intervals);
         let id = if intervals == 1 {
             n.to_string()
         } else {
             format!("{n}_over_{intervals}")
         };
-        let (dim, _, nnz_l, path) = structured_and_qdldl(&mut g, &id, &shape, &kkt);
+        let (dim, _, nnz_l, path) = structured_and_qdldl(&mut g, &id, &nlp, &kkt);
         println!(
-            "6-DoF shape, N = {n} over {intervals} intervals: K is {dim} square; QDLDL's L has {nnz_l} nonzeros; reduced system {} square; last path {path:?}",
+            "6-DoF, N = {n} over {intervals} intervals: K is {dim} square; QDLDL's L has {nnz_l} nonzeros; reduced system {} square; last path {path:?}",
             (NS6 - 1) * n + 2,
         );
     }
     g.finish();
 }
 
-criterion_group!(benches, kkt_solve, kkt_six_dof, cold_solve);
+/// The 6-DoF cold solve (`six_dof::solve_cold`: the coarse start, then
+/// N = 20) of the three seeded 3-D states of IPOPT's fixture. The side by
+/// side with IPOPT on 100 states is `bench/six_dof_vs_ipopt.py`.
+fn six_dof_cold_solve(c: &mut Criterion) {
+    let mut g = c.benchmark_group("six_dof_cold_solve");
+    g.sampling_mode(SamplingMode::Flat);
+    g.sample_size(10);
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(3));
+    let settings = DirectSettings::default();
+    for (name, start) in six_dof_starts() {
+        g.bench_function(BenchmarkId::new("direct", &name), |b| {
+            b.iter(|| {
+                let nlp = six_dof_nlp(start, 20, 1);
+                let r = solve_cold(
+                    &nlp,
+                    12.0,
+                    start[six_dof::sx::M] - 5000.0,
+                    &settings,
+                    &mut Silent,
+                );
+                assert_eq!(r.status, Status::Solved, "{name}");
+                black_box(r)
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    kkt_solve,
+    kkt_six_dof,
+    cold_solve,
+    six_dof_cold_solve
+);
 criterion_main!(benches);

@@ -341,9 +341,10 @@ impl Differentiable for crate::problem::six_dof::SixDof {
         const {
             assert!(NS == NX && NL >= NX + six::NU);
         }
-        out.f = [0.0; NS];
-        out.jac = [[0.0; NL]; NS];
-        out.hess = [[0.0; NL]; NL];
+        // In place (an array literal is built on the stack and copied).
+        out.f.fill(0.0);
+        out.jac.as_flattened_mut().fill(0.0);
+        out.hess.as_flattened_mut().fill(0.0);
         let (v, q, w, m) = (
             [sx::VX, sx::VY, sx::VZ],
             [sx::Q, sx::Q + 1, sx::Q + 2, sx::Q + 3],

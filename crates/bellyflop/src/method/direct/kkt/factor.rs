@@ -220,11 +220,27 @@ impl<const NS: usize, const NL: usize> KktSolver<NS, NL> {
                 continue;
             }
             let bk = &kkt.b[k];
+            // B_kᵀ over the block's slots, so that the products below run
+            // over contiguous rows. Each sum keeps its order (q = 0, 1, …,
+            // from −0.0 as `Sum` does), so the results are bit for bit
+            // those of the sums one by one, several at a time: the scalar
+            // reductions were latency-bound (perf: 11 % of a 6-DoF solve).
+            let mut bt = [[0.0; NS]; NL];
+            for q in 0..b {
+                for row in c0..NS {
+                    bt[q][row] = bk[row][sl[q]];
+                }
+            }
             let mut gm = [[0.0; NS]; NL];
             for p in 0..b {
-                for row in c0..NS {
-                    gm[p][row] = (0..b).map(|q| m[p][q] * bk[row][sl[q]]).sum();
+                let mut acc = [-0.0; NS];
+                for q in 0..b {
+                    let mpq = m[p][q];
+                    for row in c0..NS {
+                        acc[row] += mpq * bt[q][row];
+                    }
                 }
+                gm[p][c0..].copy_from_slice(&acc[c0..]);
             }
             let mut rm = [[0.0; NS]; NS];
             for p in 0..b {
@@ -234,8 +250,13 @@ impl<const NS: usize, const NL: usize> KktSolver<NS, NL> {
             }
             let mut tm = [[0.0; NS]; NS];
             for c in c0..NS {
-                for c2 in c0..NS {
-                    tm[c][c2] = (0..b).map(|p| bk[c][sl[p]] * gm[p][c2]).sum();
+                let tc = &mut tm[c];
+                tc[c0..].fill(-0.0);
+                for p in 0..b {
+                    let v = bt[p][c];
+                    for c2 in c0..NS {
+                        tc[c2] += v * gm[p][c2];
+                    }
                 }
                 g[sm(c, k)] -= (0..b).map(|p| bk[c][sl[p]] * u[p]).sum::<f64>();
                 self.s_nu[sm(c, k)] += (0..b).map(|p| bk[c][sl[p]] * me[p]).sum::<f64>();
