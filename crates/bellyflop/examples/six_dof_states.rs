@@ -17,7 +17,7 @@ use std::time::Instant;
 use bellyflop::input::settings::DirectSettings;
 use bellyflop::method::direct::six_dof::{self, Nlp6, NS};
 use bellyflop::method::observer::Silent;
-use bellyflop::problem::six_dof::{sx, SixDof, NU, NX};
+use bellyflop::problem::six_dof::{sx, SixDof};
 use bellyflop::{Mesh, Scenario};
 use serde_json::{json, Value};
 
@@ -63,17 +63,7 @@ fn main() {
         }
         times.sort_by(f64::total_cmp);
         let (nlp, r) = last.expect("one solve");
-        let states: Vec<f64> = (0..=nlp.n)
-            .flat_map(|k| (0..NX).map(move |s| (k, s)))
-            .map(|(k, s)| nlp.physical(s, r.w[nlp.idx(k, s)]))
-            .collect();
-        let controls: Vec<f64> = (0..nlp.n)
-            .flat_map(|i| (0..NU).map(move |j| (i, j)))
-            .map(|(i, j)| match j {
-                0 => nlp.thrust_n(&r.w, i),
-                _ => nlp.physical(NX + j, r.w[nlp.idx(i, NX + j)]),
-            })
-            .collect();
+        let (states, controls) = nlp.physical_answer(&r.w);
         rows.push(json!({
             "name": state["name"],
             "status": r.status,

@@ -205,22 +205,7 @@ fn the_interior_point_reaches_the_references_6dof_answers() {
             r.status,
             r.history.len()
         );
-        let states: Vec<f64> = (0..=nlp.n)
-            .flat_map(|k| (0..NX).map(move |s| (k, s)))
-            .map(|(k, s)| nlp.physical(s, r.w[nlp.idx(k, s)]))
-            .collect();
-        let controls: Vec<f64> = (0..nlp.n)
-            .flat_map(|i| (0..NU).map(move |j| (i, j)))
-            .map(|(i, j)| {
-                let s = NX + j;
-                let v = nlp.physical(s, r.w[nlp.idx(i, s)]);
-                if j == 0 {
-                    nlp.thrust_n(&r.w, i)
-                } else {
-                    v
-                }
-            })
-            .collect();
+        let (states, controls) = nlp.physical_answer(&r.w);
         let answer = Answer {
             states: &states,
             controls: &controls,
@@ -256,5 +241,66 @@ fn the_interior_point_reaches_the_references_6dof_answers() {
             (mf_cold - mf).abs() < 0.01,
             "{name}: cold m_f {mf_cold} against {mf}"
         );
+    }
+}
+
+/// Issue 38's planar special case: the 6-DoF solve of the paper's case (y =
+/// V_y = 0, the attitude in the x–z plane) gives the planar answer, t_f
+/// and m_f within 1e-6 relative, with every out-of-plane state at zero.
+#[test]
+fn the_paper_case_in_3d_is_the_planar_answer() {
+    use bellyflop::input::settings::{DirectSettings, SolverSettings};
+    use bellyflop::method::direct::six_dof::{solve_cold, Nlp6};
+    use bellyflop::method::observer::Silent;
+    use bellyflop::problem::six_dof::{planar_state, sx};
+    use bellyflop::Status;
+
+    let paper = Scenario::paper();
+    let planar = bellyflop::method::direct::solve(&paper, &SolverSettings::default(), &mut Silent);
+    assert_eq!(planar.status, Status::Solved, "{}", planar.message);
+    let y = paper.initial.state_si();
+    let model = SixDof::new(&paper.vehicle, &paper.environment);
+    let mesh = paper.discretization.collocation_mesh();
+    let nlp = Nlp6::six_dof(model, mesh, planar_state(&y), &paper.terminal);
+    let d = &paper.discretization;
+    let r = solve_cold(
+        &nlp,
+        d.tf_guess_s,
+        d.final_mass_guess_kg,
+        &DirectSettings::default(),
+        &mut Silent,
+    );
+    assert_eq!(r.status, Status::Solved, "{}", r.message);
+    let tf = nlp.tf_s(&r.w);
+    let mf = nlp.physical(sx::M, r.w[nlp.idx(nlp.n, sx::M)]);
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+    eprintln!(
+        "6-DoF: t_f {tf:.9} s, m_f {mf:.6} kg; planar: t_f {:.9} s, m_f {:.6} kg",
+        planar.tf_s, planar.final_mass_kg
+    );
+    assert!(
+        rel(tf, planar.tf_s) < 1e-6,
+        "t_f {tf} against {}",
+        planar.tf_s
+    );
+    assert!(
+        rel(mf, planar.final_mass_kg) < 1e-6,
+        "m_f {mf} against {}",
+        planar.final_mass_kg
+    );
+    let out_of_plane = [
+        sx::Y,
+        sx::VY,
+        sx::Q + 1,
+        sx::Q + 3,
+        sx::W,
+        sx::W + 2,
+        sx::DELTA + 1,
+    ];
+    for k in 0..=nlp.n {
+        for s in out_of_plane {
+            let v = nlp.physical(s, r.w[nlp.idx(k, s)]);
+            assert!(v.abs() < 1e-9, "node {k}, state {s}: {v}");
+        }
     }
 }

@@ -456,6 +456,22 @@ impl<M: Differentiable, const NS: usize, const NL: usize> Transcription<M, NS, N
         p
     }
 
+    /// The answer in physical units, node-major as
+    /// [`crate::collocation::residuals::Answer`] reads it: the states at the
+    /// N + 1 nodes (NS each), and the model's controls at the N points, the
+    /// thrust with its slacks (T + ABOVE − BELOW).
+    pub fn physical_answer(&self, w: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let states = (0..=self.n)
+            .flat_map(|k| (0..NS).map(move |s| (k, s)))
+            .map(|(k, s)| self.physical(s, w[self.idx(k, s)]))
+            .collect();
+        let controls = (0..self.n)
+            .flat_map(|i| (0..M::NU).map(move |j| (i, NS + j)))
+            .map(|(i, s)| self.physical_node(w, i)[s])
+            .collect();
+        (states, controls)
+    }
+
     /// Thrust \[N\] at collocation point `i`: T + ABOVE − BELOW.
     pub fn thrust_n(&self, w: &[f64], i: usize) -> f64 {
         self.physical_node(w, i)[Self::T]

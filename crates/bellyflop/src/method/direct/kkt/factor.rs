@@ -220,44 +220,15 @@ impl<const NS: usize, const NL: usize> KktSolver<NS, NL> {
                 continue;
             }
             let bk = &kkt.b[k];
-            // B_kᵀ over the block's slots, so that the products below run
-            // over contiguous rows. Each sum keeps its order (q = 0, 1, …,
-            // from −0.0 as `Sum` does), so the results are bit for bit
-            // those of the sums one by one, several at a time: the scalar
-            // reductions were latency-bound (perf: 11 % of a 6-DoF solve).
-            let mut bt = [[0.0; NS]; NL];
-            for q in 0..b {
-                for row in c0..NS {
-                    bt[q][row] = bk[row][sl[q]];
-                }
-            }
-            let mut gm = [[0.0; NS]; NL];
-            for p in 0..b {
-                let mut acc = [-0.0; NS];
-                for q in 0..b {
-                    let mpq = m[p][q];
-                    for row in c0..NS {
-                        acc[row] += mpq * bt[q][row];
-                    }
-                }
-                gm[p][c0..].copy_from_slice(&acc[c0..]);
-            }
+            let gm = Self::m_bt(m, bk, sl, c0);
             let mut rm = [[0.0; NS]; NS];
             for p in 0..b {
                 if let Some(c) = state(p) {
                     rm[c] = gm[p];
                 }
             }
-            let mut tm = [[0.0; NS]; NS];
+            let tm = Self::b_m_bt(bk, &gm, sl, c0);
             for c in c0..NS {
-                let tc = &mut tm[c];
-                tc[c0..].fill(-0.0);
-                for p in 0..b {
-                    let v = bt[p][c];
-                    for c2 in c0..NS {
-                        tc[c2] += v * gm[p][c2];
-                    }
-                }
                 g[sm(c, k)] -= (0..b).map(|p| bk[c][sl[p]] * u[p]).sum::<f64>();
                 self.s_nu[sm(c, k)] += (0..b).map(|p| bk[c][sl[p]] * me[p]).sum::<f64>();
             }
@@ -265,6 +236,55 @@ impl<const NS: usize, const NL: usize> KktSolver<NS, NL> {
         }
         self.rhs = g;
         (s_nunu, a)
+    }
+
+    /// M_k B_kᵀ over node k's block (`sl`: its slots), rows c0…NS of B_k.
+    /// Each sum keeps its order (q = 0, 1, …, from −0.0 as `Sum` does), so
+    /// the results are bit for bit those of the sums one by one, several
+    /// at a time over contiguous rows of B_kᵀ: the scalar reductions were
+    /// latency-bound (perf: 11 % of a 6-DoF solve).
+    fn m_bt(m: &[[f64; NL]; NL], bk: &[[f64; NL]; NS], sl: &[usize], c0: usize) -> [[f64; NS]; NL] {
+        let b = sl.len();
+        let mut bt = [[0.0; NS]; NL];
+        for q in 0..b {
+            for row in c0..NS {
+                bt[q][row] = bk[row][sl[q]];
+            }
+        }
+        let mut gm = [[0.0; NS]; NL];
+        for p in 0..b {
+            let mut acc = [-0.0; NS];
+            for q in 0..b {
+                let mpq = m[p][q];
+                for row in c0..NS {
+                    acc[row] += mpq * bt[q][row];
+                }
+            }
+            gm[p][c0..].copy_from_slice(&acc[c0..]);
+        }
+        gm
+    }
+
+    /// B_k (M_k B_kᵀ) over rows and columns c0…NS, its sums in order as
+    /// in [`Self::m_bt`].
+    fn b_m_bt(
+        bk: &[[f64; NL]; NS],
+        gm: &[[f64; NS]; NL],
+        sl: &[usize],
+        c0: usize,
+    ) -> [[f64; NS]; NS] {
+        let mut tm = [[0.0; NS]; NS];
+        for c in c0..NS {
+            let tc = &mut tm[c];
+            tc[c0..].fill(-0.0);
+            for (p, &slot) in sl.iter().enumerate() {
+                let v = bk[c][slot];
+                for c2 in c0..NS {
+                    tc[c2] += v * gm[p][c2];
+                }
+            }
+        }
+        tm
     }
 
     /// The first product of [`Self::assemble_dense`]'s shape, on a scratch
