@@ -439,6 +439,35 @@ mod tests {
         }
     }
 
+    /// Each path row depends on the inputs that PATH_ROW_INPUTS lists and
+    /// on no other (a row held where none of them is free would be a
+    /// constant; one held where an unlisted input moves would be missed),
+    /// and holds strictly at zero inputs, where a start is pushed.
+    fn path_row_inputs_are_exact<M: Dynamics>(m: &M, base: &[f64]) {
+        let n = M::NX + M::NU;
+        assert_eq!(M::PATH_ROW_INPUTS.len(), M::PATH_ROWS);
+        let rows = |p: &[f64]| {
+            let mut g = vec![0.0; M::PATH_ROWS];
+            m.path_rows(&p[..M::NX], &p[M::NX..], &mut g);
+            g
+        };
+        let p = point::<M>(11, base);
+        let g0 = rows(&p);
+        for c in 0..n {
+            let mut q = p.clone();
+            q[c] += 0.05 * (1.0 + q[c].abs());
+            let g1 = rows(&q);
+            for (r, inputs) in M::PATH_ROW_INPUTS.iter().enumerate() {
+                assert_eq!(g0[r] != g1[r], inputs.contains(&c), "row {r}, input {c}");
+            }
+        }
+        let mut zero = p.clone();
+        for &c in M::PATH_ROW_INPUTS.iter().flat_map(|r| r.iter()) {
+            zero[c] = 0.0;
+        }
+        assert!(rows(&zero).iter().all(|&g| g < 0.0));
+    }
+
     fn tables_are_whole<M: Dynamics>() {
         assert_eq!(M::STATE.len(), M::NX);
         assert_eq!(M::CONTROL.len(), M::NU);
@@ -462,6 +491,12 @@ mod tests {
     fn both_models_name_their_nonlinear_inputs() {
         nonlinear_inputs_are_complete(&planar(), &planar_base());
         nonlinear_inputs_are_complete(&six_dof(), &six_dof_base());
+    }
+
+    #[test]
+    fn both_models_name_their_path_rows_inputs() {
+        path_row_inputs_are_exact(&planar(), &planar_base());
+        path_row_inputs_are_exact(&six_dof(), &six_dof_base());
     }
 
     #[test]
