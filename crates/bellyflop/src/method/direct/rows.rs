@@ -150,10 +150,25 @@ impl<const NL: usize> NodeRows<NL> {
         self.value.resize(m, 0.0);
         self.grad.clear();
         self.grad.resize(m, [0.0; NL]);
+        // Room for every Hessian entry that `evaluate` can push (one per
+        // planar limit, at most the square of its inputs per model row),
+        // so that no solve in this storage allocates (issue 27).
+        let entries: usize = self
+            .at
+            .iter()
+            .map(|&(_, kind)| match kind {
+                Kind::Limit(_) => 1,
+                Kind::Path(r) => M::PATH_ROW_INPUTS[r].len().pow(2),
+            })
+            .sum();
         self.hess.clear();
+        self.hess.reserve(entries);
         self.hess_at.clear();
         self.hess_at.resize(m + 1, 0);
         self.path.resize_with(M::PATH_ROWS, RowDerivatives::default);
+        for (d, inputs) in self.path.iter_mut().zip(M::PATH_ROW_INPUTS) {
+            d.hess.reserve(inputs.len().pow(2));
+        }
     }
 
     pub(super) fn len(&self) -> usize {
