@@ -10,4 +10,5 @@ pub mod plan;
 pub mod radau;
 pub mod residuals;
 pub mod scaling;
+pub mod six_dof_derivatives;
 pub mod trajectory;
