@@ -15,6 +15,7 @@ use crate::solution::{Solution, Status};
 use crate::verify::{accuracy, path};
 
 pub mod evidence;
+pub mod six_dof;
 
 /// Solve a scenario with the method its settings name
 /// (`solver.method`: SCvx or the direct interior-point method), with
