@@ -77,6 +77,7 @@ pub fn initial_state(s: &bf_state) -> InitialState {
         pitch_rate_degps: s.pitch_rate_radps.to_degrees(),
         mass_kg: s.mass_kg,
         gimbal_deg: s.gimbal_rad.to_degrees(),
+        ..Default::default()
     }
 }
 
