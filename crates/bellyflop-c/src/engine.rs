@@ -31,18 +31,24 @@ impl Problem {
         }
     }
 
-    /// A problem from a scenario file's text, parsed and validated.
+    /// A problem from a scenario file's text, parsed and validated; a
+    /// 6-DoF one is refused ([`Problem::planar`]).
     pub fn from_toml_str(text: &str) -> Result<Problem, Failure> {
-        Ok(Problem {
-            case: Case::from_toml_str(text)?,
-        })
+        Problem::planar(Case::from_toml_str(text)?)
     }
 
-    /// A problem from a scenario file, read, parsed and validated.
+    /// A problem from a scenario file, read, parsed and validated; a 6-DoF
+    /// one is refused ([`Problem::planar`]).
     pub fn from_file(path: &std::path::Path) -> Result<Problem, Failure> {
-        Ok(Problem {
-            case: Case::from_file(path)?,
-        })
+        Problem::planar(Case::from_file(path)?)
+    }
+
+    /// The problem of a planar case: the C API solves and re-plans only the
+    /// planar model, so a 6-DoF case (`model = "6dof"`) is
+    /// [`InputError::ModelUnavailable`] (`BF_ERROR_INVALID_INPUT`).
+    fn planar(case: Case) -> Result<Problem, Failure> {
+        case.scenario.require_planar("the C API")?;
+        Ok(Problem { case })
     }
 
     /// Replace the initial state. A state out of range is refused (the
