@@ -362,3 +362,30 @@ pub fn node(sol: &Solution, k: usize) -> bf_node {
         gimbal_rate_radps: sol.gimbal_rate_radps[k],
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bellyflop::input::scenario::PAPER_TOML;
+
+    /// A 6-DoF scenario is refused as invalid input, the message naming
+    /// the model and the C API, rather than solved as planar.
+    #[test]
+    fn a_six_dof_problem_is_refused() {
+        let text = PAPER_TOML.replacen(
+            "name = \"paper\"\n",
+            "name = \"paper\"\nmodel = \"6dof\"\n",
+            1,
+        );
+        assert!(text.contains("model = \"6dof\""));
+        let e = Problem::from_toml_str(&text).unwrap_err();
+        assert_eq!(e.code, bf_error::InvalidInput);
+        assert!(
+            e.message
+                .contains("model = \"6dof\" is not yet available in the C API"),
+            "{}",
+            e.message
+        );
+        assert!(Problem::from_toml_str(PAPER_TOML).is_ok());
+    }
+}
