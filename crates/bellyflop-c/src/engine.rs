@@ -31,18 +31,24 @@ impl Problem {
         }
     }
 
-    /// A problem from a scenario file's text, parsed and validated.
+    /// A problem from a scenario file's text, parsed and validated; a
+    /// 6-DoF one is refused ([`Problem::planar`]).
     pub fn from_toml_str(text: &str) -> Result<Problem, Failure> {
-        Ok(Problem {
-            case: Case::from_toml_str(text)?,
-        })
+        Problem::planar(Case::from_toml_str(text)?)
     }
 
-    /// A problem from a scenario file, read, parsed and validated.
+    /// A problem from a scenario file, read, parsed and validated; a 6-DoF
+    /// one is refused ([`Problem::planar`]).
     pub fn from_file(path: &std::path::Path) -> Result<Problem, Failure> {
-        Ok(Problem {
-            case: Case::from_file(path)?,
-        })
+        Problem::planar(Case::from_file(path)?)
+    }
+
+    /// The problem of a planar case: the C API solves and re-plans only the
+    /// planar model, so a 6-DoF case (`model = "6dof"`) is
+    /// [`InputError::ModelUnavailable`] (`BF_ERROR_INVALID_INPUT`).
+    fn planar(case: Case) -> Result<Problem, Failure> {
+        case.scenario.require_planar("the C API")?;
+        Ok(Problem { case })
     }
 
     /// Replace the initial state. A state out of range is refused (the
@@ -77,6 +83,7 @@ pub fn initial_state(s: &bf_state) -> InitialState {
         pitch_rate_degps: s.pitch_rate_radps.to_degrees(),
         mass_kg: s.mass_kg,
         gimbal_deg: s.gimbal_rad.to_degrees(),
+        ..Default::default()
     }
 }
 
@@ -353,5 +360,32 @@ pub fn node(sol: &Solution, k: usize) -> bf_node {
         },
         thrust_n: sol.thrust_n[k],
         gimbal_rate_radps: sol.gimbal_rate_radps[k],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bellyflop::input::scenario::PAPER_TOML;
+
+    /// A 6-DoF scenario is refused as invalid input, the message naming
+    /// the model and the C API, rather than solved as planar.
+    #[test]
+    fn a_six_dof_problem_is_refused() {
+        let text = PAPER_TOML.replacen(
+            "name = \"paper\"\n",
+            "name = \"paper\"\nmodel = \"6dof\"\n",
+            1,
+        );
+        assert!(text.contains("model = \"6dof\""));
+        let e = Problem::from_toml_str(&text).unwrap_err();
+        assert_eq!(e.code, bf_error::InvalidInput);
+        assert!(
+            e.message
+                .contains("model = \"6dof\" is not yet available in the C API"),
+            "{}",
+            e.message
+        );
+        assert!(Problem::from_toml_str(PAPER_TOML).is_ok());
     }
 }

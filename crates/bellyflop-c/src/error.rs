@@ -55,7 +55,8 @@ impl From<InputError> for Failure {
             InputError::Io { .. } | InputError::NotUtf8 { .. } => bf_error::Io,
             InputError::Empty { .. }
             | InputError::OutOfRange { .. }
-            | InputError::Inconsistent { .. } => bf_error::InvalidInput,
+            | InputError::Inconsistent { .. }
+            | InputError::ModelUnavailable { .. } => bf_error::InvalidInput,
         };
         Failure {
             code,

@@ -1,5 +1,6 @@
 //! `bellyflop init [FILE]`: a commented scenario TOML with every parameter,
-//! its unit and its allowed range, filled with the paper's case.
+//! its unit and its allowed range, filled with the paper's case
+//! (`--model 6dof`: as a 6-DoF scenario, with the out-of-plane fields at 0).
 //!
 //! The values come from [`Scenario::paper`] through serde, so every field of
 //! the scenario is written, in full precision (`{:?}` of f64 is the shortest
@@ -10,6 +11,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use bellyflop::input::scenario::ModelKind;
 use bellyflop::Case;
 use serde_json::Value;
 
@@ -23,12 +25,34 @@ pub struct InitArgs {
     /// Overwrite FILE if it exists.
     #[arg(long)]
     force: bool,
+    /// The scenario's model: `planar` (the paper's problem) or `6dof`
+    /// (with the out-of-plane fields, each at 0).
+    #[arg(long, value_enum, default_value = "planar")]
+    model: InitModel,
+}
+
+/// The models `init --model` writes (the scenario's `model` key).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum InitModel {
+    Planar,
+    #[value(name = "6dof")]
+    SixDof,
+}
+
+/// The paper's case as a scenario of `model`.
+pub fn paper_case(model: InitModel) -> Case {
+    let mut case = Case::paper();
+    case.scenario.model = match model {
+        InitModel::Planar => ModelKind::Planar,
+        InitModel::SixDof => ModelKind::SixDof,
+    };
+    case
 }
 
 /// Run `bellyflop init`: exit 0 on success, 2 (bad input) if FILE exists
 /// (without `--force`) or its directory does not, 1 if it cannot be written.
 pub fn run(args: &InitArgs) -> ExitCode {
-    let text = template(&Case::paper());
+    let text = template(&paper_case(args.model));
     let Some(path) = &args.file else {
         out!("{text}");
         return ExitCode::SUCCESS;
@@ -132,6 +156,9 @@ const TRUST_RADIUS: Allowed = open_closed(0.0, 1e6);
 const RHO: Allowed = closed_open(0.0, 1.0);
 const FACTOR: Allowed = open_closed(1.0, 100.0);
 
+/// The accepted values of `model`.
+pub const MODELS: &[&str] = &["planar", "6dof"];
+
 /// The accepted values of `solver.method`.
 pub const METHODS: &[&str] = &["direct", "scvx"];
 
@@ -156,6 +183,8 @@ macro_rules! doc {
 /// Every scenario field, in the order of the written file.
 pub const DOCS: &[Doc] = &[
     doc!("", "name", "", Allowed::Text, "Name of the case, printed in the summary."),
+    doc!("", "model", "", Allowed::Choice(MODELS),
+        "The model: \"planar\" (the default when left out) is the paper's problem in the x-z plane; \"6dof\" is the 6-DoF model (issue 38), which also reads the out-of-plane fields of [initial] and environment.wind_y_mps (each 6-DoF only, default 0). `bellyflop solve` solves only \"planar\" so far; the library's method::direct::six_dof::solve_cold solves \"6dof\"."),
     // Vehicle (paper Table 1).
     doc!("vehicle", "dry_mass_kg", "kg", MASS,
         "Dry mass m_dry: the final mass must stay at or above it (Eq. 4). Below initial.mass_kg."),
@@ -180,6 +209,8 @@ pub const DOCS: &[Doc] = &[
         "Gravitational acceleration g0, also used in I_sp*g0."),
     doc!("environment", "wind_x_mps", "m/s", closed(-100.0, 100.0),
         "Steady horizontal wind W, positive along +x: drag acts on the air-relative velocity (Vx - W, Vz). 0 is the paper's still air."),
+    doc!("environment", "wind_y_mps", "m/s", closed(-100.0, 100.0),
+        "6-DoF only, default 0. Steady cross wind along +y: drag acts on the air-relative velocity V - (wind_x_mps, wind_y_mps, 0)."),
     // Initial state (Eq. 4).
     doc!("initial", "x_m", "m", POS_X, "Downrange position x of the CG at ignition."),
     doc!("initial", "z_m", "m", POS_Z,
@@ -192,6 +223,18 @@ pub const DOCS: &[Doc] = &[
     doc!("initial", "mass_kg", "kg", MASS, "Mass m0 at ignition. Above vehicle.dry_mass_kg."),
     doc!("initial", "gimbal_deg", "deg", open(-90.0, 90.0),
         "Nozzle angle delta at ignition. |delta| at most vehicle.max_gimbal_deg."),
+    doc!("initial", "y_m", "m", POS_X, "6-DoF only, default 0. Cross-range position y of the CG at ignition."),
+    doc!("initial", "vy_mps", "m/s", SPEED, "6-DoF only, default 0. Cross-range velocity Vy."),
+    doc!("initial", "yaw_deg", "deg", THETA,
+        "6-DoF only, default 0. Yaw psi about the vertical z axis, applied after the pitch: the attitude is q = q_yaw(psi about z) * q_pitch(theta about -y) * q_roll(phi about e_z)."),
+    doc!("initial", "roll_deg", "deg", THETA,
+        "6-DoF only, default 0. Roll phi about the vehicle axis e_z (toward the nose), applied before the pitch."),
+    doc!("initial", "body_rate_x_degps", "deg/s", PITCH_RATE,
+        "6-DoF only, default 0. Body rate omega_x about the body axis e_x ((cos theta, 0, sin theta) in the plane); the body rates are (omega_x, -pitch_rate_degps, omega_z)."),
+    doc!("initial", "roll_rate_degps", "deg/s", PITCH_RATE,
+        "6-DoF only, default 0. Roll rate omega_z about the vehicle axis e_z; nothing torques it, so it is conserved."),
+    doc!("initial", "gimbal2_deg", "deg", open(-90.0, 90.0),
+        "6-DoF only, default 0. Second nozzle angle delta2 at ignition, tilting the thrust out of the pitch plane. |delta2| at most vehicle.max_gimbal_deg."),
     // Terminal state (Eq. 4); the final mass is free above m_dry.
     doc!("terminal", "x_m", "m", POS_X, "Downrange position of the CG at touchdown (the landing point)."),
     doc!("terminal", "z_m", "m", POS_Z, "Altitude of the CG at touchdown. Below initial.z_m."),
@@ -422,12 +465,24 @@ fn entry(out: &mut String, table: &str, key: &str, value: &Value, commented: boo
 }
 
 /// The commented TOML text of a scenario: every field, with its unit and
-/// allowed range.
+/// allowed range (a 6-DoF scenario's out-of-plane fields too, at 0 when
+/// they are).
 pub fn template(case: &Case) -> String {
     let v = serde_json::to_value(case).expect("a Case serializes");
     let Value::Object(mut top) = v else {
         panic!("a Scenario serializes to an object")
     };
+    let six_dof = case.scenario.model == ModelKind::SixDof;
+    if six_dof {
+        // Serde leaves them out at 0; a 6-DoF file shows them all.
+        for (field, value) in case.scenario.out_of_plane() {
+            if let Some((table, key)) = field.split_once('.') {
+                if let Some(Value::Object(t)) = top.get_mut(table) {
+                    t.entry(key).or_insert(value.into());
+                }
+            }
+        }
+    }
     // Without constraints, the table is written with the recommended
     // limits, commented out.
     let no_constraints = case.scenario.constraints.is_empty();
@@ -439,13 +494,24 @@ pub fn template(case: &Case) -> String {
         );
     }
     let mut out = String::new();
-    out.push_str(
-        "# bellyflop scenario, written by `bellyflop init`: the paper's case\n\
-         # (Chen, Ma, Wang, Su, Mathematics 2023, 11, 288).\n\
-         # Solve it with `bellyflop solve --scenario FILE`. Every value is checked against\n\
-         # the range given before solving; units are in the key names and comments.\n\
-         # Ranges: [a, b] includes both ends, (a, b) excludes them.\n",
-    );
+    if six_dof {
+        out.push_str(
+            "# bellyflop scenario, written by `bellyflop init --model 6dof`: the paper's case\n\
+             # (Chen, Ma, Wang, Su, Mathematics 2023, 11, 288) as a 6-DoF scenario, its\n\
+             # out-of-plane fields at 0. `bellyflop solve` does not solve the 6-DoF model yet;\n\
+             # the library does (problem::six_dof::start_state, method::direct::six_dof).\n\
+             # Every value is checked against the range given; units are in the key names\n\
+             # and comments. Ranges: [a, b] includes both ends, (a, b) excludes them.\n",
+        );
+    } else {
+        out.push_str(
+            "# bellyflop scenario, written by `bellyflop init`: the paper's case\n\
+             # (Chen, Ma, Wang, Su, Mathematics 2023, 11, 288).\n\
+             # Solve it with `bellyflop solve --scenario FILE`. Every value is checked against\n\
+             # the range given before solving; units are in the key names and comments.\n\
+             # Ranges: [a, b] includes both ends, (a, b) excludes them.\n",
+        );
+    }
     // Tables in TABLES' order, then any others; a table's own sub-tables
     // (e.g. [solver.direct]) follow it.
     let mut order: Vec<String> = TABLES.iter().map(|(t, _)| t.to_string()).collect();
@@ -503,10 +569,26 @@ pub fn template(case: &Case) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use bellyflop::InputError;
+    use bellyflop::{InputError, Scenario};
 
+    /// Whether `table.key` is read only by the 6-DoF model (the library's
+    /// [`Scenario::out_of_plane`] fields).
+    fn six_dof_only(table: &str, key: &str) -> bool {
+        Scenario::paper()
+            .out_of_plane()
+            .iter()
+            .any(|(field, _)| *field == format!("{table}.{key}"))
+    }
+
+    /// The paper's case with `table.key` set to `value`, as a 6-DoF case
+    /// when the field is 6-DoF only.
     fn with_field(table: &str, key: &str, value: Value) -> Result<Case, String> {
-        let mut v = serde_json::to_value(Case::paper()).unwrap();
+        let model = if six_dof_only(table, key) {
+            InitModel::SixDof
+        } else {
+            InitModel::Planar
+        };
+        let mut v = serde_json::to_value(paper_case(model)).unwrap();
         let mut t = &mut v;
         for part in table.split('.').filter(|p| !p.is_empty()) {
             t = &mut t[part];
@@ -540,8 +622,12 @@ mod tests {
             Case::paper()
         );
         // Every key is written once, each with its comment above it (the
-        // constraints commented out).
-        for d in DOCS {
+        // constraints commented out); the 6-DoF ones are not written.
+        assert!(!text.contains("\nmodel = "), "{text}");
+        for d in DOCS
+            .iter()
+            .filter(|d| !six_dof_only(d.table, d.key) && d.key != "model")
+        {
             let hash = if d.table == "constraints" { "# " } else { "" };
             let line = format!("\n{hash}{} = ", d.key);
             assert!(uncommented.contains(&line), "{} missing", d.key);
@@ -571,10 +657,63 @@ mod tests {
         );
     }
 
+    /// `init --model 6dof` writes a 6-DoF scenario: it reads back valid
+    /// and 6-DoF, with every out-of-plane field written (at 0, with its
+    /// comment: meaning, unit, range), and the fields, edited, read back.
+    #[test]
+    fn the_six_dof_template_reads_back_as_a_six_dof_case() {
+        let text = template(&paper_case(InitModel::SixDof));
+        assert!(!text.contains("undocumented"), "{text}");
+        assert!(text.contains("\nmodel = \"6dof\"\n"), "{text}");
+        let read = Case::from_toml_str(&text).expect("the 6-DoF template is valid");
+        assert_eq!(read.scenario.model, ModelKind::SixDof);
+        assert!(read.scenario.out_of_plane().iter().all(|(_, v)| *v == 0.0));
+        for (field, _) in read.scenario.out_of_plane() {
+            let (_, key) = field.split_once('.').unwrap();
+            let line = format!("\n{key} = 0.0\n");
+            assert_eq!(text.matches(&line).count(), 1, "{field}:\n{text}");
+            let doc = DOCS
+                .iter()
+                .find(|d| format!("{}.{}", d.table, d.key) == field)
+                .unwrap_or_else(|| panic!("{field} is undocumented"));
+            // Its comment: the `#` lines right above it.
+            let before = &text[..text.find(&line).unwrap()];
+            let comment: Vec<&str> = before
+                .lines()
+                .rev()
+                .take_while(|l| l.starts_with('#'))
+                .collect();
+            let comment = comment.into_iter().rev().collect::<Vec<_>>().join(" ");
+            assert!(comment.contains("6-DoF only, default 0"), "{field}");
+            assert!(
+                comment.contains(&format!("Allowed: {}.", allowed_text(doc))),
+                "{field}: {comment}"
+            );
+        }
+        // The fields, set, are read back.
+        let edited = text
+            .replace("\nyaw_deg = 0.0\n", "\nyaw_deg = 30.0\n")
+            .replace("\ngimbal2_deg = 0.0\n", "\ngimbal2_deg = -5.0\n")
+            .replace("\nwind_y_mps = 0.0\n", "\nwind_y_mps = 3.0\n");
+        let read = Case::from_toml_str(&edited).expect("valid");
+        let i = &read.scenario.initial;
+        assert_eq!((i.yaw_deg, i.gimbal2_deg), (30.0, -5.0));
+        assert_eq!(read.scenario.environment.wind_y_mps, 3.0);
+        // The planar template is untouched by the 6-DoF documentation.
+        assert_eq!(
+            template(&paper_case(InitModel::Planar)),
+            template(&Case::paper())
+        );
+    }
+
     #[test]
     fn every_documented_field_exists() {
-        let mut case = Case::paper();
+        let mut case = paper_case(InitModel::SixDof);
         case.scenario.constraints = bellyflop::input::scenario::Constraints::recommended();
+        let (i, e) = (&mut case.scenario.initial, &mut case.scenario.environment);
+        (i.y_m, i.vy_mps, i.yaw_deg, i.roll_deg) = (1.0, 1.0, 1.0, 1.0);
+        (i.body_rate_x_degps, i.roll_rate_degps, i.gimbal2_deg) = (1.0, 1.0, 1.0);
+        e.wind_y_mps = 1.0;
         let v = serde_json::to_value(case).unwrap();
         for d in DOCS {
             let mut field = &v;

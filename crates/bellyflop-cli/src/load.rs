@@ -11,11 +11,14 @@ use bellyflop::Case;
 use crate::args::SolveArgs;
 
 /// The scenario file (the paper's case by default) with the flags' overrides.
-pub fn case(args: &SolveArgs) -> Result<Case, bellyflop::InputError> {
+/// A 6-DoF scenario is refused ([`bellyflop::InputError::ModelUnavailable`],
+/// naming `command`): the CLI solves only the planar model.
+pub fn case(args: &SolveArgs, command: &str) -> Result<Case, bellyflop::InputError> {
     let case = match &args.scenario {
         Some(path) => Case::from_file(path)?,
         None => Case::paper(),
     };
+    case.scenario.require_planar(command)?;
     warn(&case);
     Overrides {
         nodes: args.nodes,
@@ -30,8 +33,10 @@ pub fn case(args: &SolveArgs) -> Result<Case, bellyflop::InputError> {
 
 /// The scenario file and the closed-loop configuration of `sim` and
 /// `montecarlo` (the paper's case and the defaults when omitted), with the
-/// flags' overrides.
+/// flags' overrides. A 6-DoF scenario is refused, naming `command`, as in
+/// [`case`].
 pub fn closed_loop(
+    command: &str,
     scenario: &Option<PathBuf>,
     config: &Option<PathBuf>,
     open_loop: bool,
@@ -41,6 +46,7 @@ pub fn closed_loop(
         Some(p) => Case::from_file(p)?,
         None => Case::paper(),
     };
+    s.scenario.require_planar(command)?;
     warn(&s);
     let mut c = match config {
         Some(p) => SimConfig::from_file(p)?,

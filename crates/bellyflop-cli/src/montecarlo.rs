@@ -110,14 +110,19 @@ fn check_count(flag: &str, value: u64, (lo, hi): (u64, u64)) -> Result<(), Strin
 }
 
 pub fn run(args: &MonteCarloArgs) -> ExitCode {
-    let (scenario, config) =
-        match load::closed_loop(&args.scenario, &args.config, args.open_loop, false) {
-            Ok(v) => v,
-            Err(e) => {
-                errln!("error: {e}");
-                return ExitCode::from(exit::BAD_INPUT);
-            }
-        };
+    let (scenario, config) = match load::closed_loop(
+        "`bellyflop montecarlo`",
+        &args.scenario,
+        &args.config,
+        args.open_loop,
+        false,
+    ) {
+        Ok(v) => v,
+        Err(e) => {
+            errln!("error: {e}");
+            return ExitCode::from(exit::BAD_INPUT);
+        }
+    };
     let counts = check_count("--runs", args.runs, RUNS)
         .and_then(|()| check_count("--threads", args.threads, THREADS));
     if let Err(e) = counts {

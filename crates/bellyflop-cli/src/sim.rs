@@ -49,6 +49,7 @@ pub struct SimArgs {
 
 pub fn run(args: &SimArgs) -> ExitCode {
     let (scenario, config) = match load::closed_loop(
+        "`bellyflop sim`",
         &args.scenario,
         &args.config,
         args.open_loop,

@@ -14,7 +14,7 @@ pub fn run(args: SolveArgs) -> ExitCode {
         scenario,
         solver: settings,
         warnings,
-    } = match load::case(&args) {
+    } = match load::case(&args, "`bellyflop solve`") {
         Ok(c) => c,
         Err(e) => {
             errln!("error: {e}");

@@ -44,7 +44,7 @@ pub fn run(args: &SweepArgs) -> ExitCode {
             formulation: args.formulation,
             ..SolveArgs::default()
         };
-        match load::case(&solve_args) {
+        match load::case(&solve_args, "`bellyflop sweep`") {
             Ok(s) => scenarios.push(s),
             Err(e) => {
                 errln!("error: {e}");

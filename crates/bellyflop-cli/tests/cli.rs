@@ -369,3 +369,56 @@ fn bad_input_messages_name_the_problem() {
     );
     assert!(!file.exists());
 }
+
+/// A 6-DoF scenario (as `init --model 6dof` writes it, valid) is refused by
+/// every command that would solve or fly it as planar: exit 2, the typed
+/// error naming the command and the library's 6-DoF solve, nothing
+/// written, and no solve started.
+#[test]
+fn a_six_dof_scenario_is_refused_not_solved_as_planar() {
+    let dir = std::env::temp_dir().join(format!("bellyflop-cli-6dof-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("six.toml");
+    let (code, _, stderr) =
+        bellyflop(&["init", "--force", "--model", "6dof", file.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let case =
+        bellyflop::Case::from_toml_str(&text).expect("init --model 6dof writes a valid file");
+    assert_eq!(
+        case.scenario.model,
+        bellyflop::input::scenario::ModelKind::SixDof
+    );
+    let path = file.to_str().unwrap();
+    let out = dir.join("out");
+    let out_str = out.to_str().unwrap();
+    for args in [
+        vec!["solve", "--scenario", path, "--out", out_str],
+        vec!["solve", "--json", "--scenario", path],
+        vec!["sweep", "--scenario", path, "--nodes", "10,20"],
+        vec!["sim", "--scenario", path],
+        vec![
+            "montecarlo",
+            "--scenario",
+            path,
+            "--runs",
+            "2",
+            "--out",
+            out_str,
+        ],
+    ] {
+        let (code, stdout, stderr) = bellyflop(&args);
+        assert_eq!(code, 2, "{args:?}: {stderr}");
+        assert!(stdout.is_empty(), "{args:?}: {stdout}");
+        let command = format!("`bellyflop {}`", args[0]);
+        assert!(
+            stderr.contains("model = \"6dof\" is not yet available in")
+                && stderr.contains(&command)
+                && stderr.contains("method::direct::six_dof::solve_cold"),
+            "{args:?}: {stderr}"
+        );
+        assert!(!stderr.contains("solving"), "{args:?}: {stderr}");
+        assert!(!out.exists(), "{args:?} wrote {}", out.display());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

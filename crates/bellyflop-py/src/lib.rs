@@ -564,6 +564,11 @@ fn solve(
         fast,
     };
     let interpolation = parse_interpolation(interpolation)?;
+    scenario
+        .inner
+        .scenario
+        .require_planar("the Python package's solve")
+        .map_err(input_error)?;
     let s = overrides
         .apply(scenario.inner.clone())
         .map_err(input_error)?;

@@ -10,6 +10,8 @@
 //!
 //! - bad input is a typed [`InputError`] whose message is non-empty and
 //!   names the field it is about (and, for TOML errors, a line and column);
+//!   a valid 6-DoF scenario (`model = "6dof"`) is refused the same way,
+//!   [`InputError::ModelUnavailable`], as the planar pipeline cannot take it;
 //! - a scenario that validates writes back to TOML and reads back equal and
 //!   valid (`bellyflop init` and `--out` write scenarios this way);
 //! - every answer of [`crate::solve`] has a status whose exit code is 0 if
@@ -59,7 +61,8 @@ pub const BUDGET: Budget = Budget {
 #[derive(Debug)]
 pub enum Outcome {
     /// Not a valid scenario: not UTF-8, not TOML of the right shape, or a
-    /// field out of range or inconsistent.
+    /// field out of range or inconsistent; or a 6-DoF one, which the planar
+    /// pipeline does not take.
     Rejected(InputError),
     /// A valid scenario, solved (within [`BUDGET`]) by each method in turn.
     Ran(Vec<(Method, Status)>),
@@ -83,6 +86,11 @@ pub fn exercise_with(bytes: &[u8], budget: Budget) -> Outcome {
         Err(e) => return rejected(e),
     };
     round_trip(&case);
+    // The pipeline solves the planar model: a 6-DoF scenario (valid, and
+    // round-tripped above) is refused as the CLI and the bindings refuse it.
+    if let Err(e) = case.scenario.require_planar("the fuzzed planar solve") {
+        return rejected(e);
+    }
     let mut s = case;
     s.solver.max_iterations = s.solver.max_iterations.min(budget.scvx_iterations);
     s.solver.relaxed_first_iterations = s
@@ -123,6 +131,9 @@ fn rejected(e: InputError) -> Outcome {
         | InputError::OutOfRange { field, .. }
         | InputError::Inconsistent { field, .. } => {
             assert!(!field.is_empty() && msg.contains(field.as_str()), "{msg}");
+        }
+        InputError::ModelUnavailable { model, .. } => {
+            assert!(msg.contains(&format!("model = \"{model}\"")), "{msg}");
         }
         InputError::Io { .. } => panic!("no file was read, yet: {msg}"),
     }

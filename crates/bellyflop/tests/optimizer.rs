@@ -304,6 +304,7 @@ fn replan_at(s: &mut Case, x: [f64; 8], wind_mps: f64) {
         pitch_rate_degps: x[5],
         mass_kg: x[6],
         gimbal_deg: x[7],
+        ..Default::default()
     };
     s.scenario.terminal.z_m = GATE[1];
     s.scenario.terminal.vz_mps = GATE[3];

@@ -638,3 +638,192 @@ fn vanishing_physical_values_are_out_of_range() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------
+// The 6-DoF model's fields (issue 38): `model = "6dof"` and the
+// out-of-plane start.
+// ---------------------------------------------------------------------------
+
+/// The paper's file as a 6-DoF scenario, with `initial` and `environment`
+/// lines added (TOML `key = value` lines) to their tables.
+fn six_dof_with(initial: &str, environment: &str) -> String {
+    let text = paper_with("name = \"paper\"\n", "name = \"paper\"\nmodel = \"6dof\"\n");
+    let text = text.replacen("\n[initial]\n", &format!("\n[initial]\n{initial}\n"), 1);
+    text.replacen(
+        "\n[environment]\n",
+        &format!("\n[environment]\n{environment}\n"),
+        1,
+    )
+}
+
+/// Every out-of-plane field: its table, key, a value just outside its range,
+/// and the range as the error gives it.
+const OUT_OF_PLANE: [(&str, &str, f64, &str); 8] = [
+    ("initial", "y_m", 1.5e5, "[-1e5, 1e5] m"),
+    ("initial", "vy_mps", -2e4, "[-1e4, 1e4] m/s"),
+    ("initial", "yaw_deg", 181.0, "[-180, 180] deg"),
+    ("initial", "roll_deg", -180.5, "[-180, 180] deg"),
+    ("initial", "body_rate_x_degps", 361.0, "[-360, 360] deg/s"),
+    ("initial", "roll_rate_degps", -400.0, "[-360, 360] deg/s"),
+    ("initial", "gimbal2_deg", 90.0, "(-90, 90) deg"),
+    ("environment", "wind_y_mps", 100.5, "[-100, 100] m/s"),
+];
+
+/// A 6-DoF scenario with one out-of-plane field set.
+fn six_dof_one(table: &str, key: &str, value: f64) -> String {
+    let line = format!("{key} = {value:?}");
+    match table {
+        "initial" => six_dof_with(&line, ""),
+        _ => six_dof_with("", &line),
+    }
+}
+
+#[test]
+fn each_out_of_plane_field_out_of_range_names_field_value_and_range() {
+    for (table, key, value, range) in OUT_OF_PLANE {
+        let (field, got, allowed, display) = out_of_range(&six_dof_one(table, key, value));
+        let name = format!("{table}.{key}");
+        assert_eq!(field, name);
+        assert_eq!(got, value, "{name}");
+        assert_eq!(allowed, range, "{name}");
+        assert!(
+            display.contains(&name) && display.contains(range),
+            "{display}"
+        );
+        // A planar file too: the range comes first, then the model.
+        let planar = six_dof_one(table, key, value).replace("model = \"6dof\"\n", "");
+        assert_eq!(out_of_range(&planar).0, name);
+    }
+    // NaN and infinity are out of range as everywhere.
+    let (field, value, _, _) = out_of_range(&six_dof_with("yaw_deg = nan", ""));
+    assert_eq!(field, "initial.yaw_deg");
+    assert!(value.is_nan());
+    let (field, _, _, _) = out_of_range(&six_dof_with("", "wind_y_mps = -inf"));
+    assert_eq!(field, "environment.wind_y_mps");
+}
+
+/// The second gimbal angle is held to the gimbal bound, like the first.
+#[test]
+fn the_second_gimbal_must_be_within_the_gimbal_bound() {
+    let (field, value, reason, display) = inconsistent(&six_dof_with("gimbal2_deg = -25.0", ""));
+    assert_eq!((field.as_str(), value), ("initial.gimbal2_deg", -25.0));
+    assert!(reason.contains("vehicle.max_gimbal_deg = 20"), "{display}");
+    assert!(Case::from_toml_str(&six_dof_with("gimbal2_deg = -20.0", "")).is_ok());
+}
+
+/// Each out-of-plane field, nonzero in a planar scenario, is refused with
+/// an error that names it and `model = "6dof"`: nothing is silently
+/// ignored. At 0, written or not, it is accepted.
+#[test]
+fn a_planar_scenario_with_an_out_of_plane_field_needs_model_6dof() {
+    for (table, key, _, _) in OUT_OF_PLANE {
+        let text = six_dof_one(table, key, 1.5).replace("model = \"6dof\"\n", "");
+        let (field, value, reason, display) = inconsistent(&text);
+        assert_eq!((field.as_str(), value), (&*format!("{table}.{key}"), 1.5));
+        assert!(reason.contains("needs model = \"6dof\""), "{display}");
+        assert!(
+            display.starts_with(&format!(
+                "{table}.{key} = 1.5 is inconsistent: needs model = \"6dof\""
+            )),
+            "{display}"
+        );
+        // The same field at 0 is the paper's planar case; with the model,
+        // any in-range value is accepted.
+        let zero = six_dof_one(table, key, 0.0).replace("model = \"6dof\"\n", "");
+        assert_eq!(Case::from_toml_str(&zero).unwrap(), Case::paper());
+        let six = Case::from_toml_str(&six_dof_one(table, key, 1.5)).expect("valid 6-DoF");
+        let name = format!("{table}.{key}");
+        let fields = six.scenario.out_of_plane();
+        assert!(
+            fields.iter().any(|(f, v)| *f == name && *v == 1.5),
+            "{name}"
+        );
+    }
+    // `model = "planar"` said out loud is the default.
+    let text = paper_with(
+        "name = \"paper\"\n",
+        "name = \"paper\"\nmodel = \"planar\"\n",
+    );
+    assert_eq!(Case::from_toml_str(&text).unwrap(), Case::paper());
+    // An unknown model is a TOML error naming it.
+    let text = paper_with("name = \"paper\"\n", "name = \"paper\"\nmodel = \"3dof\"\n");
+    let (line, _, message, _) = toml_error(&text);
+    assert_eq!(line, line_of(&text, "model"));
+    assert!(
+        message.contains("3dof") && message.contains("6dof"),
+        "{message}"
+    );
+}
+
+/// A 6-DoF scenario with every out-of-plane field set writes to TOML (the
+/// model and the fields included) and reads back equal; a planar one writes
+/// none of them.
+#[test]
+fn a_six_dof_scenario_round_trips_through_toml() {
+    let text = six_dof_with(
+        "y_m = -35.0\nvy_mps = 6.5\nyaw_deg = 30.0\nroll_deg = -50.0\n\
+         body_rate_x_degps = 2.5\nroll_rate_degps = -7.0\ngimbal2_deg = 4.0",
+        "wind_y_mps = -3.0",
+    );
+    let case = Case::from_toml_str(&text).expect("valid");
+    let s = &case.scenario;
+    assert_eq!(s.model, bellyflop::input::scenario::ModelKind::SixDof);
+    let i = &s.initial;
+    assert_eq!(
+        (i.y_m, i.vy_mps, i.yaw_deg, i.roll_deg),
+        (-35.0, 6.5, 30.0, -50.0)
+    );
+    assert_eq!(
+        (i.body_rate_x_degps, i.roll_rate_degps, i.gimbal2_deg),
+        (2.5, -7.0, 4.0)
+    );
+    assert_eq!(s.environment.wind_y_mps, -3.0);
+    let written = toml::to_string(&case).expect("serializes");
+    assert!(written.contains("model = \"6dof\""), "{written}");
+    assert!(written.contains("roll_rate_degps = -7.0"), "{written}");
+    assert_eq!(Case::from_toml_str(&written).expect("reads back"), case);
+    // The start it gives the 6-DoF model.
+    let start = bellyflop::problem::six_dof::start_state(&s.initial);
+    assert_eq!((start[1], start[4]), (-35.0, 6.5));
+    // Planar: nothing new is written.
+    let paper = toml::to_string(&Case::paper()).unwrap();
+    for key in [
+        "model",
+        "wind_y",
+        "\ny_m",
+        "vy_mps",
+        "yaw",
+        "roll",
+        "gimbal2",
+        "body_rate",
+    ] {
+        assert!(!paper.contains(key), "{key}: {paper}");
+    }
+}
+
+/// The planar consumers refuse a 6-DoF scenario with the typed error that
+/// names them; a planar one passes.
+#[test]
+fn a_six_dof_scenario_is_refused_by_the_planar_consumers() {
+    let case = Case::from_toml_str(&six_dof_with("yaw_deg = 10.0", "")).unwrap();
+    let e = case.scenario.require_planar("the test").unwrap_err();
+    assert!(
+        matches!(
+            &e,
+            InputError::ModelUnavailable { model, operation }
+                if *model == bellyflop::input::scenario::ModelKind::SixDof && operation == "the test"
+        ),
+        "{e:?}"
+    );
+    let msg = e.to_string();
+    assert!(
+        msg.starts_with("model = \"6dof\" is not yet available in the test")
+            && msg.contains("method::direct::six_dof::solve_cold"),
+        "{msg}"
+    );
+    assert!(Case::paper().scenario.require_planar("the test").is_ok());
+    // The closed loop refuses it too (its planner flies the planar model).
+    let config = bellyflop::guidance::SimConfig::default();
+    let e = config.fly(&case, 1, 0, false).unwrap_err();
+    assert!(matches!(e, InputError::ModelUnavailable { .. }), "{e}");
+}

@@ -192,6 +192,7 @@ mod tests {
             pitch_rate_degps: 0.0,
             mass_kg: 115_000.0,
             gimbal_deg: 0.0,
+            ..Default::default()
         };
         let r = Dispersions::none().sample(1, 0);
         let mut plant = Plant::from_realization(&s, &PlantConfig::default(), &r).unwrap();

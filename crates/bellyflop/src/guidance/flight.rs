@@ -86,8 +86,10 @@ pub fn end_state(o: &Outcome) -> PlantState {
 /// Fly run `run_index` of campaign `seed`: draw the dispersions, plan, and
 /// land in closed loop (or open loop with `guidance.replan = false`).
 ///
-/// Errors only for invalid configurations; every valid input gives a
-/// [`Flight`], whatever happens in it.
+/// Errors only for invalid configurations, and for a 6-DoF scenario
+/// ([`InputError::ModelUnavailable`]: the closed loop flies the planar
+/// model); every other valid input gives a [`Flight`], whatever happens in
+/// it.
 pub fn fly(
     case: &Case,
     dispersions: &Dispersions,
@@ -98,6 +100,8 @@ pub fn fly(
     keep_trace: bool,
 ) -> Result<Flight, InputError> {
     case.validate()?;
+    case.scenario
+        .require_planar("the closed loop (guidance::fly)")?;
     dispersions.validate()?;
     guidance.validate()?;
     let mut realization = dispersions.sample(seed, run_index);

@@ -349,6 +349,7 @@ pub fn initial_state(x: &[f64; NX]) -> InitialState {
         pitch_rate_degps: x[ix::W].to_degrees(),
         mass_kg: x[ix::OMEGA].exp(),
         gimbal_deg: x[ix::DELTA].to_degrees(),
+        ..Default::default()
     }
 }
 

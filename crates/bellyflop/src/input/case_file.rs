@@ -7,7 +7,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::scenario::{
-    Case, Constraints, Discretization, Environment, InitialState, Scenario, TerminalState, Vehicle,
+    Case, Constraints, Discretization, Environment, InitialState, ModelKind, Scenario,
+    TerminalState, Vehicle,
 };
 use crate::input::settings::SolverSettings;
 
@@ -35,6 +36,8 @@ struct DiscretizationFile {
 #[serde(deny_unknown_fields)]
 struct CaseFile<D> {
     name: String,
+    #[serde(default, skip_serializing_if = "ModelKind::is_planar")]
+    model: ModelKind,
     vehicle: Vehicle,
     environment: Environment,
     initial: InitialState,
@@ -51,6 +54,7 @@ impl Serialize for Case {
         let s = self.scenario.clone();
         CaseFile {
             name: s.name,
+            model: s.model,
             vehicle: s.vehicle,
             environment: s.environment,
             initial: s.initial,
@@ -69,6 +73,7 @@ impl<'de> Deserialize<'de> for Case {
         let d = f.discretization;
         let mut scenario = Scenario {
             name: f.name,
+            model: f.model,
             vehicle: f.vehicle,
             environment: f.environment,
             initial: f.initial,

@@ -2,6 +2,8 @@
 
 use thiserror::Error;
 
+use crate::input::model_kind::ModelKind;
+
 /// Which kind of input file an error is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FileKind {
@@ -67,6 +69,11 @@ pub enum InputError {
         value: f64,
         reason: String,
     },
+    /// A valid scenario of a model that `operation` cannot take yet: a
+    /// 6-DoF one (`model = "6dof"`) given to the planar solve, the closed
+    /// loop or a binding, refused rather than solved as planar.
+    #[error("model = \"{model}\" is not yet available in {operation}: it solves and flies only the planar model (model = \"planar\"); the 6-DoF direct solve is the library's bellyflop::method::direct::six_dof::solve_cold, from problem::six_dof::start_state of the scenario")]
+    ModelUnavailable { model: ModelKind, operation: String },
 }
 
 /// A number as Rust prints it, but with an exponent when tiny or huge

@@ -6,6 +6,7 @@ mod case_file;
 pub mod error;
 pub mod guess;
 pub mod mesh_layout;
+pub mod model_kind;
 pub mod overrides;
 pub(crate) mod range;
 pub mod scenario;

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::input::error::InputError;
 use crate::input::mesh_layout::MeshLayout;
+pub use crate::input::model_kind::ModelKind;
 use crate::input::settings::SolverSettings;
 
 /// Vehicle parameters (paper Table 1, plus the drag coefficient from NOTES.md).
@@ -38,6 +39,12 @@ pub struct Vehicle {
     pub drag_coefficient_kgpm: f64,
 }
 
+/// Whether an optional out-of-plane field is at its default, 0 (so it is
+/// not written, and planar files and JSON stay as they were).
+pub(crate) fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
 /// Planet constants.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -49,10 +56,18 @@ pub struct Environment {
     /// still air. Closed-loop guidance sets it to its wind estimate.
     #[serde(default)]
     pub wind_x_mps: f64,
+    /// Steady cross wind along +y [m/s], 6-DoF model only (`model = "6dof"`);
+    /// default 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub wind_y_mps: f64,
 }
 
 /// The state when the landing burn starts (Eq. 4, x(t0) = x0).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+///
+/// The fields after `gimbal_deg` are out of the plane and read only by the
+/// 6-DoF model (`model = "6dof"`); each defaults to 0 and is not written at
+/// 0. How they make the 6-DoF start: [`crate::problem::six_dof::start_state`].
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InitialState {
     pub x_m: f64,
@@ -63,8 +78,32 @@ pub struct InitialState {
     pub theta_deg: f64,
     pub pitch_rate_degps: f64,
     pub mass_kg: f64,
-    /// Nozzle angle δ at ignition.
+    /// Nozzle angle δ at ignition (δ1 of the 6-DoF model).
     pub gimbal_deg: f64,
+    /// Cross-range position y \[m\] (6-DoF only).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub y_m: f64,
+    /// Cross-range velocity V_y [m/s] (6-DoF only).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub vy_mps: f64,
+    /// Yaw ψ about the inertial z axis, applied after the pitch \[deg\]
+    /// (6-DoF only).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub yaw_deg: f64,
+    /// Roll φ about the vehicle axis e_z, applied before the pitch \[deg\]
+    /// (6-DoF only).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub roll_deg: f64,
+    /// Body rate ω_x about the body axis e_x [deg/s] (6-DoF only).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub body_rate_x_degps: f64,
+    /// Roll rate ω_z about the vehicle axis e_z [deg/s] (6-DoF only).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub roll_rate_degps: f64,
+    /// Second gimbal angle δ2 at ignition, which tilts the thrust out of the
+    /// pitch plane \[deg\] (6-DoF only).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub gimbal2_deg: f64,
 }
 
 impl InitialState {
@@ -79,6 +118,20 @@ impl InitialState {
             self.pitch_rate_degps.to_radians(),
             self.mass_kg,
             self.gimbal_deg.to_radians(),
+        ]
+    }
+
+    /// The out-of-plane fields (read only by the 6-DoF model) by their
+    /// scenario names, with their values.
+    pub fn out_of_plane(&self) -> [(&'static str, f64); 7] {
+        [
+            ("initial.y_m", self.y_m),
+            ("initial.vy_mps", self.vy_mps),
+            ("initial.yaw_deg", self.yaw_deg),
+            ("initial.roll_deg", self.roll_deg),
+            ("initial.body_rate_x_degps", self.body_rate_x_degps),
+            ("initial.roll_rate_degps", self.roll_rate_degps),
+            ("initial.gimbal2_deg", self.gimbal2_deg),
         ]
     }
 }
@@ -195,6 +248,9 @@ pub(crate) fn one() -> usize {
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
     pub name: String,
+    /// The model: planar (the default, not written) or 6-DoF.
+    #[serde(default, skip_serializing_if = "ModelKind::is_planar")]
+    pub model: ModelKind,
     pub vehicle: Vehicle,
     pub environment: Environment,
     pub initial: InitialState,
@@ -262,6 +318,28 @@ impl Scenario {
     /// The paper's case (Table 1, Section 4 boundary conditions, C_LD = 195.52 kg/m).
     pub fn paper() -> Self {
         Case::paper().scenario
+    }
+
+    /// The fields read only by the 6-DoF model, by their scenario names,
+    /// with their values: all 0 in a planar scenario (validation checks).
+    pub fn out_of_plane(&self) -> [(&'static str, f64); 8] {
+        let i = self.initial.out_of_plane();
+        let wind = ("environment.wind_y_mps", self.environment.wind_y_mps);
+        [i[0], i[1], i[2], i[3], i[4], i[5], i[6], wind]
+    }
+
+    /// `Ok` for a planar scenario; for a 6-DoF one,
+    /// [`InputError::ModelUnavailable`] naming `operation` (e.g. "the CLI's
+    /// solve"): the planar solve, closed loop and bindings call this first,
+    /// so a 6-DoF scenario is refused rather than solved as planar.
+    pub fn require_planar(&self, operation: &str) -> Result<(), InputError> {
+        match self.model {
+            ModelKind::Planar => Ok(()),
+            model => Err(InputError::ModelUnavailable {
+                model,
+                operation: operation.into(),
+            }),
+        }
     }
 }
 

@@ -16,7 +16,8 @@ use crate::input::error::InputError;
 use crate::input::mesh_layout::MeshLayout;
 use crate::input::range::{check_all, count_in_range, in_range, Range};
 use crate::input::scenario::{
-    Constraints, Discretization, Environment, InitialState, Scenario, TerminalState, Vehicle,
+    Constraints, Discretization, Environment, InitialState, ModelKind, Scenario, TerminalState,
+    Vehicle,
 };
 use crate::input::settings::SolverSettings;
 
@@ -62,7 +63,8 @@ const DRAG: Range = Range::closed(0.0, 1e5, "kg/m");
 /// g0: at least 1e-3 m/s² (I_sp·g0 is a divisor, and below 1e-6 it broke the
 /// subproblem; a 10-km asteroid has ≈ 3e-3), at most 100 m/s² (Jupiter ≈ 25).
 const G0: Range = Range::closed(1e-3, 100.0, "m/s^2");
-/// Steady wind: |W| ≤ 100 m/s, above any wind a vehicle lands in.
+/// Steady wind: |W| ≤ 100 m/s, above any wind a vehicle lands in (along
+/// x, and the 6-DoF model's cross wind along y).
 const WIND: Range = Range::closed(-100.0, 100.0, "m/s");
 
 // ---------------------------------------------------------------------------
@@ -82,8 +84,16 @@ const THETA: Range = Range::closed(-180.0, 180.0, "deg");
 /// Pitch rate ω: |ω| ≤ 360 deg/s, one turn per second.
 const PITCH_RATE: Range = Range::closed(-360.0, 360.0, "deg/s");
 /// Initial gimbal δ(t0): strictly within ±90° (then also within ±δ_max,
-/// checked as a consistency condition).
+/// checked as a consistency condition). The 6-DoF model's second gimbal
+/// angle δ2 the same.
 const GIMBAL: Range = Range::open(-90.0, 90.0, "deg");
+/// The 6-DoF model's cross-range position y: like x, |y| ≤ 1e5 m.
+const POS_Y: Range = POS_X;
+/// The 6-DoF model's yaw ψ and roll φ: one full turn, −180° to 180°.
+const YAW_ROLL: Range = Range::closed(-180.0, 180.0, "deg");
+/// The 6-DoF model's body rates ω_x and ω_z (roll): like the pitch rate,
+/// at most one turn per second.
+const BODY_RATE: Range = PITCH_RATE;
 
 // ---------------------------------------------------------------------------
 // Discretization (paper Section 3.2).
@@ -314,16 +324,18 @@ fn vehicle(v: &Vehicle) -> Result<(), InputError> {
     ])
 }
 
-/// Environment ranges: see [`G0`].
+/// Environment ranges: see [`G0`], [`WIND`].
 fn environment(e: &Environment) -> Result<(), InputError> {
     check_all(&[
         ("environment.g0_mps2", e.g0_mps2, G0),
         ("environment.wind_x_mps", e.wind_x_mps, WIND),
+        ("environment.wind_y_mps", e.wind_y_mps, WIND),
     ])
 }
 
 /// Initial-state ranges: see [`POS_X`], [`POS_Z`], [`SPEED`], [`THETA`],
-/// [`PITCH_RATE`], [`MASS`], [`GIMBAL`].
+/// [`PITCH_RATE`], [`MASS`], [`GIMBAL`]; the 6-DoF fields [`POS_Y`],
+/// [`SPEED`], [`YAW_ROLL`], [`BODY_RATE`], [`GIMBAL`].
 fn initial(i: &InitialState) -> Result<(), InputError> {
     check_all(&[
         ("initial.x_m", i.x_m, POS_X),
@@ -334,7 +346,31 @@ fn initial(i: &InitialState) -> Result<(), InputError> {
         ("initial.pitch_rate_degps", i.pitch_rate_degps, PITCH_RATE),
         ("initial.mass_kg", i.mass_kg, MASS),
         ("initial.gimbal_deg", i.gimbal_deg, GIMBAL),
+        ("initial.y_m", i.y_m, POS_Y),
+        ("initial.vy_mps", i.vy_mps, SPEED),
+        ("initial.yaw_deg", i.yaw_deg, YAW_ROLL),
+        ("initial.roll_deg", i.roll_deg, YAW_ROLL),
+        ("initial.body_rate_x_degps", i.body_rate_x_degps, BODY_RATE),
+        ("initial.roll_rate_degps", i.roll_rate_degps, BODY_RATE),
+        ("initial.gimbal2_deg", i.gimbal2_deg, GIMBAL),
     ])
+}
+
+/// A planar scenario's out-of-plane fields ([`Scenario::out_of_plane`])
+/// must all be 0: the planar model would ignore them, so a nonzero one is
+/// [`InputError::Inconsistent`], naming it and `model = "6dof"`.
+fn model_fields(s: &Scenario) -> Result<(), InputError> {
+    if s.model != ModelKind::Planar {
+        return Ok(());
+    }
+    match s.out_of_plane().into_iter().find(|(_, v)| *v != 0.0) {
+        Some((field, value)) => Err(InputError::Inconsistent {
+            field: field.into(),
+            value,
+            reason: "needs model = \"6dof\" (a top-level key of the scenario): only the 6-DoF model reads the out-of-plane fields, and the planar model (the default) would ignore it".into(),
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Terminal-state ranges: the same as the initial state's (touchdown at
@@ -661,9 +697,12 @@ fn solver_consistency(sv: &SolverSettings) -> Result<(), InputError> {
 ///   read, [`crate::input::guess::resolve`]);
 /// - l_cp ≤ l_s: measured along the body from the gimbal, it lies on the
 ///   body; l_cg within [`CG_FRACTION_MIN`]·l_s of either end (see there);
-/// - |δ(t0)| ≤ δ_max: the initial state must satisfy the gimbal bound;
-/// - z(t0) > z(t_f): the burn starts above the landing point.
+/// - |δ(t0)| ≤ δ_max: the initial state must satisfy the gimbal bound (and
+///   |δ2(t0)| ≤ δ_max, the 6-DoF model's second angle);
+/// - z(t0) > z(t_f): the burn starts above the landing point;
+/// - a planar scenario has no out-of-plane field ([`model_fields`]).
 fn consistency(s: &Scenario) -> Result<(), InputError> {
+    model_fields(s)?;
     let v = &s.vehicle;
     let i = &s.initial;
     let t = &s.terminal;
@@ -673,7 +712,7 @@ fn consistency(s: &Scenario) -> Result<(), InputError> {
         (1.0 - CG_FRACTION_MIN) * v.length_m,
     );
 
-    let checks: [Check<'_>; 7] = [
+    let checks: [Check<'_>; 8] = [
         (
             v.min_thrust_n <= v.max_thrust_n,
             "vehicle.min_thrust_n",
@@ -732,6 +771,17 @@ fn consistency(s: &Scenario) -> Result<(), InputError> {
             &|| {
                 format!(
                     "|gimbal| must not exceed vehicle.max_gimbal_deg = {} deg",
+                    v.max_gimbal_deg
+                )
+            },
+        ),
+        (
+            i.gimbal2_deg.abs() <= v.max_gimbal_deg,
+            "initial.gimbal2_deg",
+            i.gimbal2_deg,
+            &|| {
+                format!(
+                    "|gimbal2| must not exceed vehicle.max_gimbal_deg = {} deg",
                     v.max_gimbal_deg
                 )
             },

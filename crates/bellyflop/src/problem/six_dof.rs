@@ -46,7 +46,7 @@
 
 use num_dual::{DualNum, DualSVec64};
 
-use crate::input::scenario::{Environment, Vehicle};
+use crate::input::scenario::{Environment, InitialState, Vehicle};
 use crate::problem::dynamics::Model;
 
 /// Number of states.
@@ -96,12 +96,12 @@ pub struct SixDof {
 }
 
 impl SixDof {
-    /// The vehicle of a scenario; the planar wind W along x, none across.
+    /// The vehicle of a scenario; the wind W = (wind_x_mps, wind_y_mps, 0).
     pub fn new(v: &Vehicle, env: &Environment) -> Self {
         SixDof {
             planar: Model::new(v, env),
             roll_inertia_per_mass_m2: 0.5 * v.radius_m * v.radius_m,
-            wind_mps: [env.wind_x_mps, 0.0, 0.0],
+            wind_mps: [env.wind_x_mps, env.wind_y_mps, 0.0],
             norm_gain_per_s: NORM_GAIN_PER_S,
         }
     }
@@ -343,6 +343,58 @@ pub fn planar_state(y: &[f64; 8]) -> [f64; NX] {
     s
 }
 
+/// q_a ⊗ q_b, the Hamilton product of two scalar-first quaternions.
+fn quaternion_product(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+    [
+        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+    ]
+}
+
+/// The attitude q (body to inertial, scalar first) of pitch θ, yaw ψ and
+/// roll φ \[rad\]: q = q_yaw(ψ about z) ⊗ q_pitch(θ about −y) ⊗ q_roll(φ
+/// about e_z), as `attitude` of `bench/reference/nlp_6dof.py`. At ψ = φ = 0
+/// it is [`planar_state`]'s (cos θ/2, 0, −sin θ/2, 0).
+pub fn attitude(theta_rad: f64, yaw_rad: f64, roll_rad: f64) -> [f64; 4] {
+    let (ct, st) = ((0.5 * theta_rad).cos(), (0.5 * theta_rad).sin());
+    let (cy, sy) = ((0.5 * yaw_rad).cos(), (0.5 * yaw_rad).sin());
+    let (cr, sr) = ((0.5 * roll_rad).cos(), (0.5 * roll_rad).sin());
+    let yaw = [cy, 0.0, 0.0, sy];
+    let pitch = [ct, 0.0, -st, 0.0];
+    let roll = [cr, 0.0, 0.0, sr];
+    quaternion_product(quaternion_product(yaw, pitch), roll)
+}
+
+/// The 6-DoF start of a scenario's initial state, in SI units and radians:
+/// its planar state through [`planar_state`], then the out-of-plane fields,
+/// as `start_state` of `bench/reference/nlp_6dof.py`:
+///
+/// - r = (x, y, z), V = (V_x, V_y, V_z);
+/// - q = [`attitude`](θ, ψ, φ): q_yaw(ψ about z) ⊗ q_pitch(θ about −y) ⊗
+///   q_roll(φ about e_z), from `theta_deg`, `yaw_deg`, `roll_deg`;
+/// - ω = (ω_x, −w, ω_z): `body_rate_x_degps`, the planar pitch rate w
+///   (`pitch_rate_degps`) about −e_y, `roll_rate_degps`;
+/// - m = `mass_kg`, δ1 = `gimbal_deg`, δ2 = `gimbal2_deg`.
+///
+/// With every out-of-plane field 0 it is `planar_state(&i.state_si())`.
+pub fn start_state(i: &InitialState) -> [f64; NX] {
+    let mut s = planar_state(&i.state_si());
+    s[sx::Y] = i.y_m;
+    s[sx::VY] = i.vy_mps;
+    let q = attitude(
+        i.theta_deg.to_radians(),
+        i.yaw_deg.to_radians(),
+        i.roll_deg.to_radians(),
+    );
+    s[sx::Q..sx::Q + 4].copy_from_slice(&q);
+    s[sx::W] = i.body_rate_x_degps.to_radians();
+    s[sx::W + 2] = i.roll_rate_degps.to_radians();
+    s[sx::DELTA + 1] = i.gimbal2_deg.to_radians();
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -354,6 +406,85 @@ mod tests {
     fn paper() -> SixDof {
         let s = Scenario::paper();
         SixDof::new(&s.vehicle, &s.environment)
+    }
+
+    /// With every out-of-plane field at 0, the scenario's 6-DoF start is
+    /// the planar start mapped by [`planar_state`], bit for bit.
+    #[test]
+    fn a_planar_start_is_the_planar_state() {
+        let mut i = Scenario::paper().initial;
+        (i.x_m, i.vx_mps, i.theta_deg) = (120.0, -12.0, 75.0);
+        (i.pitch_rate_degps, i.gimbal_deg) = (4.0, 3.0);
+        assert_eq!(start_state(&i), planar_state(&i.state_si()));
+        assert_eq!(
+            start_state(&Scenario::paper().initial),
+            planar_state(&Scenario::paper().initial.state_si())
+        );
+    }
+
+    /// The start out of the plane against `start_state` of the Python
+    /// reference, from bench/reference:
+    ///
+    /// ```text
+    /// # the paper's file with x_m = 120, vx_mps = -12, theta_deg = 75,
+    /// # pitch_rate_degps = 4, gimbal_deg = 3, as /tmp/s.toml
+    /// .venv/bin/python -c "import math; from nlp_reference import load_scenario;
+    ///   from nlp_6dof import start_state; r = math.radians;
+    ///   s = start_state(load_scenario('/tmp/s.toml'), y=-35.0, vy=6.5,
+    ///     psi=r(30.0), phi=r(-50.0), rates=(r(2.5), 0.0, r(-7.0)));
+    ///   print(', '.join(repr(float(x)) for x in s))"
+    /// ```
+    ///
+    /// The reference has no second gimbal angle (its s[15] is 0): here
+    /// δ2 = gimbal2_deg = 4°.
+    #[test]
+    fn an_out_of_plane_start_matches_the_python_reference() {
+        let mut i = Scenario::paper().initial;
+        (i.x_m, i.vx_mps, i.theta_deg) = (120.0, -12.0, 75.0);
+        (i.pitch_rate_degps, i.gimbal_deg) = (4.0, 3.0);
+        (i.y_m, i.vy_mps, i.yaw_deg, i.roll_deg) = (-35.0, 6.5, 30.0, -50.0);
+        (i.body_rate_x_degps, i.roll_rate_degps) = (2.5, -7.0);
+        i.gimbal2_deg = 4.0;
+        let reference: [f64; NX] = [
+            120.0,
+            -35.0,
+            600.0,
+            -12.0,
+            6.5,
+            -85.0,
+            0.781300520396941,
+            0.3913043038218774,
+            -0.46633830987729874,
+            -0.1377643617875451,
+            0.04363323129985824,
+            -0.06981317007977318,
+            -0.12217304763960307,
+            120000.0,
+            0.05235987755982989,
+            0.0,
+        ];
+        let mut want = reference;
+        want[sx::DELTA + 1] = 4f64.to_radians();
+        let got = start_state(&i);
+        for k in 0..NX {
+            assert!(
+                (got[k] - want[k]).abs() <= 1e-15 * want[k].abs().max(1.0),
+                "state {k}: {} against the reference's {}",
+                got[k],
+                want[k]
+            );
+        }
+        let norm: f64 = got[sx::Q..sx::Q + 4].iter().map(|q| q * q).sum();
+        assert!((norm - 1.0).abs() < 1e-15);
+    }
+
+    /// The cross wind of the environment is the model's W_y.
+    #[test]
+    fn the_model_takes_both_winds() {
+        let mut s = Scenario::paper();
+        (s.environment.wind_x_mps, s.environment.wind_y_mps) = (7.0, -4.0);
+        let six = SixDof::new(&s.vehicle, &s.environment);
+        assert_eq!(six.wind_mps, [7.0, -4.0, 0.0]);
     }
 
     /// A state of the paper's envelope's scales, out of the plane: unit q.
