@@ -10,15 +10,22 @@ use bellyflop::Case;
 
 use crate::args::SolveArgs;
 
+/// `solve`'s name in messages: the one command that solves a 6-DoF
+/// scenario.
+pub const SOLVE: &str = "`bellyflop solve`";
+
 /// The scenario file (the paper's case by default) with the flags' overrides.
 /// A 6-DoF scenario is refused ([`bellyflop::InputError::ModelUnavailable`],
-/// naming `command`): the CLI solves only the planar model.
+/// naming `command`) unless `command` is `solve`'s, which solves it
+/// ([`crate::solve_six_dof`]).
 pub fn case(args: &SolveArgs, command: &str) -> Result<Case, bellyflop::InputError> {
     let case = match &args.scenario {
         Some(path) => Case::from_file(path)?,
         None => Case::paper(),
     };
-    case.scenario.require_planar(command)?;
+    if command != SOLVE {
+        case.scenario.require_planar(command)?;
+    }
     warn(&case);
     Overrides {
         nodes: args.nodes,

@@ -28,6 +28,7 @@ mod plot;
 mod sample;
 mod sim;
 mod solve;
+mod solve_six_dof;
 mod sweep;
 
 use args::SolveArgs;

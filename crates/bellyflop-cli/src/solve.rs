@@ -2,6 +2,7 @@
 
 use std::process::ExitCode;
 
+use bellyflop::input::scenario::ModelKind;
 use bellyflop::method::observer::Iteration;
 use bellyflop::solution::{DirectIteration, IterationRecord};
 use bellyflop::{Case, Scenario, Solution, SolverSettings};
@@ -14,13 +15,16 @@ pub fn run(args: SolveArgs) -> ExitCode {
         scenario,
         solver: settings,
         warnings,
-    } = match load::case(&args, "`bellyflop solve`") {
+    } = match load::case(&args, load::SOLVE) {
         Ok(c) => c,
         Err(e) => {
             errln!("error: {e}");
             return ExitCode::from(exit::BAD_INPUT);
         }
     };
+    if scenario.model == ModelKind::SixDof {
+        return crate::solve_six_dof::run(&args, &scenario, &settings, &warnings);
+    }
     if let Err(code) = output::prepare_or_exit(&args.out) {
         return code;
     }

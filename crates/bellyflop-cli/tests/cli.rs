@@ -371,9 +371,9 @@ fn bad_input_messages_name_the_problem() {
 }
 
 /// A 6-DoF scenario (as `init --model 6dof` writes it, valid) is refused by
-/// every command that would solve or fly it as planar: exit 2, the typed
+/// every command that would fly it or solve it as planar: exit 2, the typed
 /// error naming the command and the library's 6-DoF solve, nothing
-/// written, and no solve started.
+/// written, and no solve started. `solve` solves it (the next test).
 #[test]
 fn a_six_dof_scenario_is_refused_not_solved_as_planar() {
     let dir = std::env::temp_dir().join(format!("bellyflop-cli-6dof-{}", std::process::id()));
@@ -393,8 +393,6 @@ fn a_six_dof_scenario_is_refused_not_solved_as_planar() {
     let out = dir.join("out");
     let out_str = out.to_str().unwrap();
     for args in [
-        vec!["solve", "--scenario", path, "--out", out_str],
-        vec!["solve", "--json", "--scenario", path],
         vec!["sweep", "--scenario", path, "--nodes", "10,20"],
         vec!["sim", "--scenario", path],
         vec![
@@ -420,5 +418,49 @@ fn a_six_dof_scenario_is_refused_not_solved_as_planar() {
         assert!(!stderr.contains("solving"), "{args:?}: {stderr}");
         assert!(!out.exists(), "{args:?} wrote {}", out.display());
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `solve` on a 6-DoF scenario runs the 6-DoF pipeline: one JSON object
+/// whose tables take their names from the model, a status that is a claim
+/// (its exit code), and with `--out` the solution and the node table; the
+/// SCvx method, planar only, is refused.
+#[test]
+fn solve_solves_a_six_dof_scenario() {
+    let dir = std::env::temp_dir().join(format!("bellyflop-cli-6dof-solve-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("six.toml");
+    let (code, _, stderr) =
+        bellyflop(&["init", "--force", "--model", "6dof", file.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let path = file.to_str().unwrap();
+    let out = dir.join("out");
+    let (code, stdout, stderr) = bellyflop(&[
+        "solve",
+        "--json",
+        "--scenario",
+        path,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect(&stderr);
+    assert_eq!(v["model"], "6dof");
+    let status = v["status"].as_str().unwrap();
+    let want_code = match status {
+        "solved" => 0,
+        "inaccurate" => 9,
+        other => panic!("{other}: {stderr}"),
+    };
+    assert_eq!(code, want_code, "{stderr}");
+    assert_eq!(v["states"]["names"][1], "y_m");
+    assert_eq!(v["controls"]["names"][0], "thrust_n");
+    let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    assert!(csv.starts_with("t_s,x_m,y_m,z_m"), "{}", &csv[..40]);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("solution.json")).unwrap()).unwrap();
+    assert_eq!(json["status"], v["status"]);
+    let (code, _, stderr) = bellyflop(&["solve", "--scenario", path, "--method", "scvx"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("solves only the planar model"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }

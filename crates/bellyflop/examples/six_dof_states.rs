@@ -45,6 +45,12 @@ fn main() {
         Some(v) => serde_json::from_value(v.clone()).expect("direct settings"),
         None => DirectSettings::default(),
     };
+    // Optional "pipeline": true solves each state through
+    // `pipeline::six_dof::solve` (the raw solve, the 6-DoF polish and the
+    // flown check) instead of the raw solve alone.
+    if input["pipeline"].as_bool().unwrap_or(false) {
+        return pipeline(&input, nodes, repeat, settings);
+    }
     let mut rows = Vec::new();
     for state in input["states"].as_array().expect("states") {
         let start: [f64; NS] = numbers(&state["start"]).try_into().expect("16 numbers");
@@ -77,6 +83,53 @@ fn main() {
             "time_ms": times[times.len() / 2],
             "states": states,
             "controls": controls,
+        }));
+    }
+    println!(
+        "{}",
+        json!({ "nodes": nodes, "repeat": repeat, "results": rows })
+    );
+}
+
+/// The states through the 6-DoF pipeline: per state the status, its
+/// message, the polish's iterations, t_f, m_f, the flown check and the
+/// median wall time of the whole solve.
+fn pipeline(input: &Value, nodes: usize, repeat: usize, direct: DirectSettings) {
+    use bellyflop::pipeline::six_dof::solve;
+    use bellyflop::SolverSettings;
+    let settings = SolverSettings {
+        direct,
+        ..SolverSettings::default()
+    };
+    let mut rows = Vec::new();
+    for state in input["states"].as_array().expect("states") {
+        let start: [f64; NS] = numbers(&state["start"]).try_into().expect("16 numbers");
+        let mut scenario = Scenario::paper();
+        scenario.discretization.nodes = nodes;
+        scenario.discretization.tf_guess_s = state["tf_guess_s"].as_f64().expect("tf_guess_s");
+        scenario.discretization.final_mass_guess_kg =
+            state["mf_guess_kg"].as_f64().expect("mf_guess_kg");
+        let mut times = Vec::with_capacity(repeat);
+        let mut last = None;
+        for _ in 0..repeat {
+            let t0 = Instant::now();
+            let sol = solve(&scenario, start, &settings, &mut Silent);
+            times.push(t0.elapsed().as_secs_f64() * 1e3);
+            last = Some(sol);
+        }
+        times.sort_by(f64::total_cmp);
+        let sol = last.expect("one solve");
+        rows.push(json!({
+            "name": state["name"],
+            "status": sol.status,
+            "message": sol.message,
+            "iterations": sol.iterations,
+            "polish_iterations": sol.polish_iterations,
+            "tf_s": sol.tf_s,
+            "mf_kg": sol.final_mass_kg,
+            "flown": sol.flown,
+            "controls_flown": sol.controls_flown,
+            "time_ms": times[times.len() / 2],
         }));
     }
     println!(

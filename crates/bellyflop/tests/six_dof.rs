@@ -425,13 +425,17 @@ fn the_six_dof_pipeline_claims_what_its_flown_controls_do() {
 
     let (data, paper, _, _) = answers();
     let start: [f64; NX] = read(&data["answers"][0]["start"]).try_into().unwrap();
+    let raw = SolverSettings {
+        polish: false,
+        ..SolverSettings::default()
+    };
     // The miss falls as the mesh grows (1.3 m at N = 20, 0.11 m at 80),
     // but the flown secant rates of the gimbal break its bound at every N.
     let mut misses = Vec::new();
     for nodes in [20usize, 80] {
         let mut s = paper.clone();
         s.discretization.nodes = nodes;
-        let sol = solve(&s, start, &SolverSettings::default(), &mut Silent);
+        let sol = solve(&s, start, &raw, &mut Silent);
         let f = sol.flown.as_ref().expect("a converged answer is flown");
         eprintln!(
             "N = {nodes}: {:?}, miss {:.2e} m {:.2e} m/s, lowest {:.3} m, {}",
@@ -441,7 +445,7 @@ fn the_six_dof_pipeline_claims_what_its_flown_controls_do() {
         misses.push(f.landing_miss_m);
     }
     assert!(misses[1] < misses[0] / 5.0, "{misses:?}");
-    let sol = solve(&paper, start, &SolverSettings::default(), &mut Silent);
+    let sol = solve(&paper, start, &raw, &mut Silent);
     assert_eq!(sol.status, Status::Inaccurate, "{}", sol.message);
     assert!(sol.message.contains("from the target"), "{}", sol.message);
     let f = sol.flown.as_ref().unwrap();
@@ -455,4 +459,59 @@ fn the_six_dof_pipeline_claims_what_its_flown_controls_do() {
     let json = sol.to_json();
     assert_eq!(json["status"], "inaccurate");
     assert_eq!(json["model"], "6dof");
+}
+
+/// Issue 38's accuracy in 3-D: where the polished default says `solved`,
+/// its controls, flown by DOP853, land within 1e-3 m and 1e-3 m/s, with no
+/// ground contact before t_f and every bound held along the flight; where
+/// it does not, it says why and publishes no flown controls. On the three
+/// fixture states the polish lands two (box3d2's raw answer, flown, misses
+/// by 117 m and its polish does not converge in its iterations).
+#[test]
+fn the_polished_six_dof_answer_lands_and_holds_its_bounds() {
+    use bellyflop::method::observer::Silent;
+    use bellyflop::pipeline::six_dof::solve;
+    use bellyflop::{SolverSettings, Status};
+
+    let (data, paper, model, _) = answers();
+    let p = &model.planar;
+    let mut solved = 0;
+    for a in data["answers"].as_array().unwrap() {
+        let name = a["name"].as_str().unwrap();
+        let start: [f64; NX] = read(&a["start"]).try_into().unwrap();
+        let sol = solve(&paper, start, &SolverSettings::default(), &mut Silent);
+        let f = sol.flown.as_ref().expect("a converged answer is flown");
+        eprintln!(
+            "{name}: {:?} after {:?} polish iterations, m_f {:.3} kg, miss {:.2e} m {:.2e} m/s, lowest {:.4} m, nozzle {:.3}°, rate {:.3}°/s; {}",
+            sol.status,
+            sol.polish_iterations,
+            sol.final_mass_kg,
+            f.landing_miss_m,
+            f.landing_miss_mps,
+            f.lowest_altitude_m,
+            f.max_gimbal_deg,
+            f.max_gimbal_rate_degps,
+            sol.message
+        );
+        if sol.status == Status::Solved {
+            solved += 1;
+            assert!(
+                f.landing_miss_m < 1e-3 && f.landing_miss_mps < 1e-3,
+                "{name}: {f:?}"
+            );
+            assert!(f.lowest_altitude_m > -1e-3, "{name}: {f:?}");
+            assert!(f.max_gimbal_deg <= p.max_gimbal_rad.to_degrees() * (1.0 + 1e-9));
+            assert!(f.max_gimbal_rate_degps <= p.max_gimbal_rate_radps.to_degrees() * (1.0 + 1e-9));
+            assert!(f.thrust_range_n.0 >= p.min_thrust_n * (1.0 - 1e-9));
+            assert!(f.thrust_range_n.1 <= p.max_thrust_n * (1.0 + 1e-9));
+            let c = sol.controls_flown.as_ref().expect("published");
+            assert_eq!(c.tf_s, sol.tf_s);
+            assert_eq!(sol.states.rows.len(), c.tau.len());
+        } else {
+            assert_eq!(sol.status, Status::Inaccurate, "{name}");
+            assert!(sol.message.contains("polish"), "{name}: {}", sol.message);
+            assert!(sol.controls_flown.is_none());
+        }
+    }
+    assert!(solved >= 2, "{solved} of 3 solved");
 }

@@ -8,10 +8,10 @@
 //! with disjoint inputs: R over q (4), a vector over δ or V, and a scalar over
 //! (T, m) or m. Each factor is differentiated once by small dual numbers,
 //! and the product's Jacobian and weighted Hessian are assembled from them
-//! here ([`product_term`]): the 8-direction duals that did it before spent
+//! here (`product_term`): the 8-direction duals that did it before spent
 //! most of their time moving 0.6 kB numbers (some 10 % of a solve in
 //! `memmove`, measured by `perf` on 30 seeded states). q̇ is bilinear plus a
-//! cubic pull, and its derivatives are written out ([`quaternion_rate_term`]).
+//! cubic pull, and its derivatives are written out (`quaternion_rate_term`).
 //! The test `six_dof_terms_give_the_whole_derivatives` (module
 //! `derivatives`) checks all of it against the whole-f dual path, to 1e-12.
 

@@ -29,6 +29,7 @@ use crate::input::scenario::Scenario;
 use crate::input::settings::SolverSettings;
 use crate::method::direct::six_dof::{solve_cold, Nlp6};
 use crate::method::observer::Observer;
+use crate::polish::{self, six_dof::Controls6};
 use crate::problem::model::{Dynamics, Field};
 use crate::problem::six_dof::{su, sx, SixDof, NU, NX};
 use crate::solution::{Status, GROUND_TOLERANCE_M};
@@ -94,7 +95,10 @@ pub struct SixDofSolution {
     pub final_mass_kg: f64,
     /// Fuel used \[kg\].
     pub fuel_kg: f64,
+    /// The direct method's iterations.
     pub iterations: usize,
+    /// The polish's iterations, when it ran.
+    pub polish_iterations: Option<usize>,
     pub solve_time_ms: f64,
     pub nodes: usize,
     /// The N + 1 node times \[s\] (the states'), the first N the
@@ -102,13 +106,19 @@ pub struct SixDofSolution {
     pub t_s: Vec<f64>,
     pub states: Table,
     pub controls: Table,
-    /// The controls flown, when the solve converged.
+    /// The controls as published and flown, when polished
+    /// ([`polish::six_dof::Controls6`]).
+    pub controls_flown: Option<Controls6>,
+    /// The check of the controls flown (the polished ones when `solved`,
+    /// else the raw ones), when the solve converged.
     pub flown: Option<FlownCheck>,
 }
 
 /// Solve the 6-DoF problem of `scenario` from the 6-DoF start `x0` (module
 /// docs): the direct method's cold solve with `settings.direct`, on the
-/// scenario's mesh, from its t_f and final-mass guesses.
+/// scenario's mesh, from its t_f and final-mass guesses; then, unless
+/// `settings.polish` is off, the 6-DoF polish ([`polish::six_dof`]) of its
+/// controls; then the check of the controls as published, flown.
 pub fn solve(
     scenario: &Scenario,
     x0: [f64; NX],
@@ -127,7 +137,6 @@ pub fn solve(
         &settings.direct,
         observer,
     );
-    let solve_time_ms = clock.elapsed().as_secs_f64() * 1e3;
     let tf_s = nlp.tf_s(&r.w);
     let (states, controls) = nlp.physical_answer(&r.w);
     let states: Vec<[f64; NX]> = states
@@ -138,12 +147,16 @@ pub fn solve(
         .chunks(NU)
         .map(|u| u.try_into().expect("NU per point"))
         .collect();
-    let t_s: Vec<f64> = nlp
-        .mesh
-        .nodes
-        .iter()
-        .map(|&tau| 0.5 * (tau + 1.0) * tf_s)
-        .collect();
+    let raw = Controls6 {
+        tf_s,
+        tau: nlp.mesh.nodes.clone(),
+        thrust_n: controls.iter().map(|u| u[su::T]).collect(),
+        delta_rad: states
+            .iter()
+            .map(|s| [s[sx::DELTA], s[sx::DELTA + 1]])
+            .collect(),
+    };
+    let t_s = raw.times_s();
     let final_mass_kg = states.last().map_or(f64::NAN, |s| s[sx::M]);
     let mut sol = SixDofSolution {
         model: "6dof",
@@ -153,7 +166,8 @@ pub fn solve(
         final_mass_kg,
         fuel_kg: x0[sx::M] - final_mass_kg,
         iterations: r.history.len(),
-        solve_time_ms,
+        polish_iterations: None,
+        solve_time_ms: 0.0,
         nodes: nlp.n,
         t_s,
         states: Table::new(SixDof::STATE, states.iter().map(|s| s.to_vec()).collect()),
@@ -161,46 +175,130 @@ pub fn solve(
             SixDof::CONTROL,
             controls.iter().map(|u| u.to_vec()).collect(),
         ),
+        controls_flown: None,
         flown: None,
     };
     if sol.status == Status::Solved {
-        check(scenario, settings, &nlp.model, &states, &controls, &mut sol);
+        let polished = settings
+            .polish
+            .then(|| polish::six_dof::polish(&nlp.model, x0, &scenario.terminal, &raw));
+        finish(scenario, settings, &nlp.model, x0, &raw, polished, &mut sol);
     }
+    sol.solve_time_ms = clock.elapsed().as_secs_f64() * 1e3;
     sol
 }
 
-/// Fly the answer's controls and demote it to `inaccurate` where they do
-/// not land or break a path constraint (module docs).
-fn check(
+/// After a converged solve: the polished controls when they fly and hold
+/// every bound (the answer then `solved`, its tables the flight's at the
+/// node times), else the raw answer's controls flown, `inaccurate` where
+/// they miss or break a bound (module docs).
+fn finish(
     scenario: &Scenario,
     settings: &SolverSettings,
     model: &SixDof,
-    states: &[[f64; NX]],
-    controls: &[[f64; NU]],
+    x0: [f64; NX],
+    raw: &Controls6,
+    polished: Option<polish::six_dof::Polished6>,
     sol: &mut SixDofSolution,
 ) {
-    let rates = [(sx::DELTA, su::CHI), (sx::DELTA + 1, su::CHI + 1)];
-    let u = flight::collocation_controls(&sol.t_s, states, controls, &rates);
+    let mut why_not = String::new();
+    if let Some(p) = polished {
+        sol.polish_iterations = Some(p.iterations);
+        if p.converged {
+            match fly_and_check(scenario, settings, model, x0, &p.controls) {
+                Ok((flight, check, reasons)) if reasons.is_empty() => {
+                    publish(&p.controls, &flight, check, sol);
+                    return;
+                }
+                Ok((_, _, reasons)) => {
+                    why_not = format!("; the polished controls, flown, {}", reasons.join(", and "))
+                }
+                Err(e) => why_not = format!("; the polished controls could not be flown ({e})"),
+            }
+        } else {
+            why_not = format!("; the polish did not converge ({})", p.message);
+        }
+    }
+    match fly_and_check(scenario, settings, model, x0, raw) {
+        Ok((_, check, reasons)) => {
+            if !reasons.is_empty() || !why_not.is_empty() {
+                sol.status = Status::Inaccurate;
+                sol.message = format!(
+                    "the raw collocation controls, flown (DOP853, as the references fly them), {}{why_not}",
+                    if reasons.is_empty() {
+                        "land and hold the bounds".to_string()
+                    } else {
+                        reasons.join(", and ")
+                    }
+                );
+            }
+            sol.flown = Some(check);
+        }
+        Err(e) => {
+            sol.status = Status::Inaccurate;
+            sol.message =
+                format!("the controls could not be flown by re-integration ({e}){why_not}");
+        }
+    }
+}
+
+/// A polished answer, `solved`: its flown controls, and its tables the
+/// flight's states at the node times with the controls flown on each node
+/// interval (T at its start, the secant rates).
+fn publish(
+    c: &Controls6,
+    flight: &flight::Flight<NX>,
+    check: FlownCheck,
+    sol: &mut SixDofSolution,
+) {
+    let t_s = c.times_s();
+    let mut rows = Vec::with_capacity(t_s.len());
+    let mut at = 0;
+    for &t in &t_s {
+        while at + 1 < flight.t_s.len() && flight.t_s[at] < t {
+            at += 1;
+        }
+        rows.push(flight.states[at].to_vec());
+    }
+    let end = flight.end();
+    sol.status = Status::Solved;
+    sol.message = String::new();
+    sol.tf_s = c.tf_s;
+    sol.final_mass_kg = end[sx::M];
+    sol.fuel_kg = flight.states[0][sx::M] - end[sx::M];
+    sol.states = Table::new(SixDof::STATE, rows);
+    sol.controls = Table::new(
+        SixDof::CONTROL,
+        (0..c.thrust_n.len())
+            .map(|k| c.at_fraction(k, 0.0).to_vec())
+            .collect(),
+    );
+    sol.t_s = t_s;
+    sol.controls_flown = Some(c.clone());
+    sol.flown = Some(check);
+}
+
+/// Fly the controls `c` from x0 and check them (module docs): the flight,
+/// its measures, and the reasons it fails, if any.
+fn fly_and_check(
+    scenario: &Scenario,
+    settings: &SolverSettings,
+    model: &SixDof,
+    x0: [f64; NX],
+    c: &Controls6,
+) -> Result<(flight::Flight<NX>, FlownCheck, Vec<String>), crate::verify::ode::IntegrationError> {
     let ode = Dop853 {
         h_max: path::STEP_S,
         ..Dop853::default()
     };
-    let f = match flight::fly::<SixDof, NX, NU>(model, states[0], &sol.t_s, u, &ode) {
-        Ok(f) => f,
-        Err(e) => {
-            sol.status = Status::Inaccurate;
-            sol.message = format!("the controls could not be flown by re-integration ({e})");
-            return;
-        }
-    };
-    let measured = measure(scenario, states, controls, &sol.t_s, &f);
+    let f = flight::fly::<SixDof, NX, NU>(model, x0, &c.times_s(), |k, t| c.at(k, t), &ode)?;
+    let measured = measure(scenario, c, &f);
     let mut reasons = Vec::new();
     let (tol_m, tol_mps) = (
         settings.landing_position_tolerance_m,
         settings.landing_velocity_tolerance_mps,
     );
-    // Written so that a NaN fails each test.
-    if !(measured.landing_miss_m <= tol_m && measured.landing_miss_mps <= tol_mps) {
+    if !(at_most(measured.landing_miss_m, tol_m) && at_most(measured.landing_miss_mps, tol_mps)) {
         reasons.push(format!(
             "land {:.3} m and {:.3} m/s from the target, beyond the tolerances of {tol_m} m and {tol_mps} m/s",
             measured.landing_miss_m, measured.landing_miss_mps
@@ -216,7 +314,7 @@ fn check(
     let p = &model.planar;
     let (lo, hi) = measured.thrust_range_n;
     let thrust_tol = CONTROL_TOLERANCE * (p.max_thrust_n - p.min_thrust_n);
-    if !(lo >= p.min_thrust_n - thrust_tol && hi <= p.max_thrust_n + thrust_tol) {
+    if !(at_most(p.min_thrust_n - thrust_tol, lo) && at_most(hi, p.max_thrust_n + thrust_tol)) {
         reasons.push(format!(
             "fly a thrust of {lo:.0}–{hi:.0} N, outside its bounds"
         ));
@@ -248,15 +346,7 @@ fn check(
             p.dry_mass_kg
         ));
     }
-    if !reasons.is_empty() {
-        sol.status = Status::Inaccurate;
-        sol.message = format!(
-            "the controls, flown (DOP853, the collocation's controls as the references fly them), {}; the 6-DoF answer is raw collocation at N = {}, and there is no 6-DoF polish yet to make its controls fly",
-            reasons.join(", and "),
-            sol.nodes
-        );
-    }
-    sol.flown = Some(measured);
+    Ok((f, measured, reasons))
 }
 
 /// a ≤ b, false when either is NaN (so that a NaN fails a check).
@@ -265,13 +355,7 @@ fn at_most(a: f64, b: f64) -> bool {
 }
 
 /// The flown checks' values (module docs).
-fn measure(
-    scenario: &Scenario,
-    states: &[[f64; NX]],
-    controls: &[[f64; NU]],
-    t_s: &[f64],
-    f: &flight::Flight<NX>,
-) -> FlownCheck {
+fn measure(scenario: &Scenario, c: &Controls6, f: &flight::Flight<NX>) -> FlownCheck {
     let target = &scenario.terminal;
     let end = f.end();
     let pad = [target.x_m, 0.0, target.z_m];
@@ -295,27 +379,20 @@ fn measure(
     }
     // The nozzle's angle from the axis, cos⁻¹(cos δ1·cos δ2), at the nodes:
     // linear between them inside the convex cone.
-    let max_gimbal_deg = states
+    let max_gimbal_deg = c
+        .delta_rad
         .iter()
-        .map(|s| {
-            (s[sx::DELTA].cos() * s[sx::DELTA + 1].cos())
-                .clamp(-1.0, 1.0)
-                .acos()
+        .map(|d| (d[0].cos() * d[1].cos()).clamp(-1.0, 1.0).acos())
+        .fold(0.0, f64::max)
+        .to_degrees();
+    let max_gimbal_rate_degps = (0..c.thrust_n.len())
+        .map(|k| {
+            let u = c.at_fraction(k, 0.0);
+            u[su::CHI].hypot(u[su::CHI + 1])
         })
         .fold(0.0, f64::max)
         .to_degrees();
-    let max_gimbal_rate_degps = states
-        .windows(2)
-        .zip(t_s.windows(2))
-        .map(|(s, t)| {
-            let dt = t[1] - t[0];
-            let r1 = (s[1][sx::DELTA] - s[0][sx::DELTA]) / dt;
-            let r2 = (s[1][sx::DELTA + 1] - s[0][sx::DELTA + 1]) / dt;
-            r1.hypot(r2)
-        })
-        .fold(0.0, f64::max)
-        .to_degrees();
-    let thrust = controls.iter().map(|u| u[su::T]);
+    let thrust = c.thrust_n.iter().copied();
     let thrust_range_n = (
         thrust.clone().fold(f64::INFINITY, f64::min),
         thrust.fold(f64::NEG_INFINITY, f64::max),

@@ -32,6 +32,7 @@ pub mod publish;
 pub mod qp;
 pub mod repair;
 pub mod shooting;
+pub mod six_dof;
 pub mod start;
 pub mod subproblem;
 

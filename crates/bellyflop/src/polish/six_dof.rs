@@ -1,0 +1,981 @@
+//! The 6-DoF polish (issue 38): the controls as they are flown, made to
+//! land and to be fuel-optimal by single shooting, as the planar polish
+//! does for the plane (a simpler parameterization, below).
+//!
+//! **The flown controls** ([`Controls6`]): on the collocation mesh of the
+//! raw answer, the thrust linear in time between the N collocation points
+//! and held from the last to t_f, and each gimbal angle linear between its
+//! N + 1 node values, so flown at the secant rate on each node interval;
+//! δ at t_0 is the start's. The references fly a collocation answer this
+//! way ([`crate::verify::flight::collocation_controls`]).
+//!
+//! **The problem** over p = (T_0 … T_{N−1}, δ1_1 … δ1_N, δ2_1 … δ2_N, t_f):
+//!
+//!   max m(t_f)  s.t.  r, V at the landing, q1 = q2 = 0, ω_x = ω_y = 0 at t_f,
+//!   T_min ≤ T_k ≤ T_max,  ‖δ_k‖ ≤ δ_max,  ‖δ_{k+1} − δ_k‖ ≤ χ_max·Δt_k,
+//!   z ≥ z_f at every step of the shot before t_f,  m(t_f) ≥ m_dry.
+//!
+//! The control rows hold along the whole flight exactly: T is linear between
+//! in-bound values, δ is linear between nodes inside the disc ‖δ‖ ≤ δ_max
+//! (which lies inside the nozzle cone cos δ1·cos δ2 ≥ cos δ_max), and each
+//! interval's rate is constant. The discs are held as the faces of an
+//! inscribed [`FACES`]-gon, rows that are linear in p
+//! (Δt_k = t_f·(τ_{k+1} − τ_k)/2), so that no linearization error enters
+//! them.
+//!
+//! The end state comes from RK4 at steps of at most [`STEP_S`] in
+//! normalized time s = t/t_f (dx/ds = t_f·f), with its exact sensitivities
+//! ∂x/∂p by the variational equations (f's Jacobian from
+//! [`six::jacobian`]). Each iteration solves a QP ([`crate::polish::qp`]):
+//! the linearized mass gain, the linearized landing with penalized slacks,
+//! the control faces and the linearized ground and dry mass, and a proximal
+//! term ε‖Δp̂‖² that grows on a poor step (an exact-penalty merit judges
+//! each by its own shot).
+
+#![allow(clippy::needless_range_loop)] // Dense block algebra indexes several arrays by one index.
+
+use crate::input::scenario::TerminalState;
+use crate::polish::qp::{self, Problem, Row};
+use crate::problem::six_dof::{self as six, su, sx, SixDof, NU, NX};
+
+/// The largest RK4 step of the shot \[s\], as the planar polish's.
+pub const STEP_S: f64 = 0.05;
+
+/// The faces of the polygon inscribed in each disc.
+pub const FACES: usize = 64;
+
+/// Iteration limit.
+pub const MAX_ITERATIONS: usize = 60;
+
+/// Converged when the scaled landing residual Σ|r̂| is below this (0.1 mm
+/// in position) ...
+pub const RESIDUAL_TOLERANCE: f64 = 1e-4;
+
+/// ... and the QP's step would gain less than this in final mass \[kg\];
+/// then at most [`CORRECTIONS`] Newton corrections on the landing alone
+/// bring Σ|r̂| below [`CORRECTED_RESIDUAL`] (10 nm).
+pub const MASS_TOLERANCE_KG: f64 = 0.01;
+pub const CORRECTIONS: usize = 6;
+pub const CORRECTED_RESIDUAL: f64 = 1e-8;
+
+/// The merit's unit of mass \[kg\].
+const MASS_SCALE_KG: f64 = 100.0;
+
+/// The weight of the landing residual, the ground and the dry mass in the
+/// merit and of the QP's slacks, per scaled unit.
+const PENALTY: f64 = 100.0;
+
+/// Second-order corrections per trial step, at most.
+const SECOND_ORDER_CORRECTIONS: usize = 3;
+
+/// The proximal weight ε: first value and bounds.
+const PROXIMAL_INITIAL: f64 = 0.3;
+const PROXIMAL_MIN: f64 = 1e-8;
+const PROXIMAL_MAX: f64 = 1e10;
+
+/// The landing's rows: the slot and the scale of its residual (1 mm and
+/// 1 mm/s at [`RESIDUAL_TOLERANCE`]·1e4; 10 µrad in q; 10 µrad/s in ω).
+const LANDING: [(usize, f64); 10] = [
+    (sx::X, 1.0),
+    (sx::Y, 1.0),
+    (sx::Z, 1.0),
+    (sx::VX, 1.0),
+    (sx::VY, 1.0),
+    (sx::VZ, 1.0),
+    (sx::Q + 1, 0.01),
+    (sx::Q + 2, 0.01),
+    (sx::W, 0.01),
+    (sx::W + 1, 0.01),
+];
+
+/// The ground rows are held where the shot is within this of the pad \[m\].
+const GROUND_WINDOW_M: f64 = 200.0;
+
+/// The controls as flown (module docs), published with a 6-DoF answer.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Controls6 {
+    /// t_f \[s\].
+    pub tf_s: f64,
+    /// The mesh's N + 1 nodes in τ ∈ [−1, 1] (t = t_f·(τ + 1)/2).
+    pub tau: Vec<f64>,
+    /// T at the N collocation points \[N\].
+    pub thrust_n: Vec<f64>,
+    /// (δ1, δ2) at the N + 1 nodes \[rad\].
+    pub delta_rad: Vec<[f64; 2]>,
+}
+
+impl Controls6 {
+    /// The N + 1 node times \[s\].
+    pub fn times_s(&self) -> Vec<f64> {
+        self.tau
+            .iter()
+            .map(|&t| 0.5 * (t + 1.0) * self.tf_s)
+            .collect()
+    }
+
+    /// The control (T, χ1, χ2) on node interval k at the fraction a ∈ [0, 1]
+    /// of it.
+    pub fn at_fraction(&self, k: usize, a: f64) -> [f64; NU] {
+        let n = self.thrust_n.len();
+        let thrust = if k + 1 < n {
+            self.thrust_n[k] + a * (self.thrust_n[k + 1] - self.thrust_n[k])
+        } else {
+            self.thrust_n[n - 1]
+        };
+        let dt = self.interval_s(k);
+        let (d0, d1) = (self.delta_rad[k], self.delta_rad[k + 1]);
+        [thrust, (d1[0] - d0[0]) / dt, (d1[1] - d0[1]) / dt]
+    }
+
+    /// Node interval k's duration \[s\].
+    fn interval_s(&self, k: usize) -> f64 {
+        0.5 * (self.tau[k + 1] - self.tau[k]) * self.tf_s
+    }
+
+    /// The control on node interval k at time t \[s\] (for
+    /// [`crate::verify::flight::fly`], whose breaks are [`Self::times_s`]).
+    pub fn at(&self, k: usize, t: f64) -> [f64; NU] {
+        let t0 = 0.5 * (self.tau[k] + 1.0) * self.tf_s;
+        self.at_fraction(k, (t - t0) / self.interval_s(k))
+    }
+}
+
+/// A polished answer: its controls, the shot's end, the iterations and
+/// whether they converged.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Polished6 {
+    pub controls: Controls6,
+    pub end: [f64; NX],
+    pub iterations: usize,
+    pub converged: bool,
+    /// Why it stopped, when it did not converge.
+    pub message: String,
+}
+
+/// The layout of p (module docs).
+#[derive(Debug, Clone, Copy)]
+struct Params {
+    n: usize,
+}
+
+impl Params {
+    fn len(self) -> usize {
+        3 * self.n + 1
+    }
+    fn thrust(self, k: usize) -> usize {
+        k
+    }
+    /// δ_j at node k ≥ 1.
+    fn delta(self, j: usize, k: usize) -> usize {
+        self.n + j * self.n + (k - 1)
+    }
+    fn tf(self) -> usize {
+        3 * self.n
+    }
+}
+
+/// The problem's fixed data.
+struct Setup<'a> {
+    model: &'a SixDof,
+    x0: [f64; NX],
+    target: &'a TerminalState,
+    tau: Vec<f64>,
+    /// RK4 substeps per node interval, fixed from the first t_f.
+    substeps: Vec<usize>,
+    par: Params,
+    /// p's scales.
+    scale: Vec<f64>,
+}
+
+impl Setup<'_> {
+    fn controls(&self, p: &[f64]) -> Controls6 {
+        let n = self.par.n;
+        let d0 = [self.x0[sx::DELTA], self.x0[sx::DELTA + 1]];
+        Controls6 {
+            tf_s: p[self.par.tf()],
+            tau: self.tau.clone(),
+            thrust_n: (0..n).map(|k| p[self.par.thrust(k)]).collect(),
+            delta_rad: (0..=n)
+                .map(|k| {
+                    if k == 0 {
+                        d0
+                    } else {
+                        [p[self.par.delta(0, k)], p[self.par.delta(1, k)]]
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    /// The landing's residuals, scaled.
+    fn residuals(&self, end: &[f64; NX]) -> [f64; 10] {
+        std::array::from_fn(|i| {
+            let (s, scale) = LANDING[i];
+            let want = self.model_target(s);
+            (end[s] - want) / scale
+        })
+    }
+
+    fn model_target(&self, s: usize) -> f64 {
+        use crate::problem::model::Dynamics;
+        self.model.terminal_fixed(self.target, s).unwrap_or(0.0)
+    }
+}
+
+/// One shot: the end state and its sensitivities, and the altitude at each
+/// step point before t_f with its.
+struct Shot {
+    end: [f64; NX],
+    d_end: Vec<Vec<f64>>,
+    z: Vec<f64>,
+    d_z: Vec<Vec<f64>>,
+}
+
+/// ∂u/∂p on node interval k at fraction a: (control, parameter, value).
+fn control_partials(
+    setup: &Setup,
+    c: &Controls6,
+    k: usize,
+    a: f64,
+    out: &mut Vec<(usize, usize, f64)>,
+) {
+    out.clear();
+    let (par, n) = (setup.par, setup.par.n);
+    if k + 1 < n {
+        out.push((su::T, par.thrust(k), 1.0 - a));
+        out.push((su::T, par.thrust(k + 1), a));
+    } else {
+        out.push((su::T, par.thrust(n - 1), 1.0));
+    }
+    let dt = c.interval_s(k);
+    let u = c.at_fraction(k, a);
+    for j in 0..2 {
+        out.push((su::CHI + j, par.delta(j, k + 1), 1.0 / dt));
+        if k >= 1 {
+            out.push((su::CHI + j, par.delta(j, k), -1.0 / dt));
+        }
+        // χ = Δδ/(t_f·c_k): ∂χ/∂t_f = −χ/t_f.
+        out.push((su::CHI + j, par.tf(), -u[su::CHI + j] / c.tf_s));
+    }
+}
+
+/// (dx/ds, dS/ds) at (x, S) on interval k at fraction a: dx/ds = t_f·f,
+/// dS/ds = t_f·(f_x·S + f_u·∂u/∂p) + f ⊗ e_tf.
+fn derivative(
+    setup: &Setup,
+    c: &Controls6,
+    k: usize,
+    a: f64,
+    x: &[f64; NX],
+    s: &[Vec<f64>],
+    partials: &mut Vec<(usize, usize, f64)>,
+) -> ([f64; NX], Vec<Vec<f64>>) {
+    let u = c.at_fraction(k, a);
+    let (f, jac) = six::jacobian(setup.model, x, &u);
+    control_partials(setup, c, k, a, partials);
+    let np = setup.par.len();
+    let tf = c.tf_s;
+    let mut ds = vec![vec![0.0; np]; NX];
+    for r in 0..NX {
+        let row = &mut ds[r];
+        for m in 0..NX {
+            let j = jac[r][m];
+            if j != 0.0 {
+                for (o, v) in row.iter_mut().zip(&s[m]) {
+                    *o += j * v;
+                }
+            }
+        }
+        for &(ui, pi, v) in partials.iter() {
+            row[pi] += jac[r][NX + ui] * v;
+        }
+        for o in row.iter_mut() {
+            *o *= tf;
+        }
+        row[setup.par.tf()] += f[r];
+    }
+    (std::array::from_fn(|r| tf * f[r]), ds)
+}
+
+/// The shot of the controls `p` (module docs).
+fn shoot(setup: &Setup, p: &[f64]) -> Shot {
+    let c = setup.controls(p);
+    let np = setup.par.len();
+    let mut x = setup.x0;
+    let mut s = vec![vec![0.0; np]; NX];
+    let mut partials = Vec::with_capacity(8);
+    let (mut z, mut d_z) = (Vec::new(), Vec::new());
+    let axpy = |x: &[f64; NX], k: &[f64; NX], h: f64| -> [f64; NX] {
+        std::array::from_fn(|i| x[i] + h * k[i])
+    };
+    let saxpy = |s: &[Vec<f64>], k: &[Vec<f64>], h: f64| -> Vec<Vec<f64>> {
+        s.iter()
+            .zip(k)
+            .map(|(a, b)| a.iter().zip(b).map(|(a, b)| a + h * b).collect())
+            .collect()
+    };
+    for k in 0..setup.par.n {
+        let ds = 0.5 * (setup.tau[k + 1] - setup.tau[k]);
+        let m = setup.substeps[k];
+        let h = ds / m as f64;
+        for i in 0..m {
+            if k > 0 || i > 0 {
+                z.push(x[sx::Z]);
+                d_z.push(s[sx::Z].clone());
+            }
+            let a0 = i as f64 / m as f64;
+            let (a1, a2) = (a0 + 0.5 / m as f64, a0 + 1.0 / m as f64);
+            let (k1x, k1s) = derivative(setup, &c, k, a0, &x, &s, &mut partials);
+            let (k2x, k2s) = derivative(
+                setup,
+                &c,
+                k,
+                a1,
+                &axpy(&x, &k1x, 0.5 * h),
+                &saxpy(&s, &k1s, 0.5 * h),
+                &mut partials,
+            );
+            let (k3x, k3s) = derivative(
+                setup,
+                &c,
+                k,
+                a1,
+                &axpy(&x, &k2x, 0.5 * h),
+                &saxpy(&s, &k2s, 0.5 * h),
+                &mut partials,
+            );
+            let (k4x, k4s) = derivative(
+                setup,
+                &c,
+                k,
+                a2,
+                &axpy(&x, &k3x, h),
+                &saxpy(&s, &k3s, h),
+                &mut partials,
+            );
+            for r in 0..NX {
+                x[r] += h / 6.0 * (k1x[r] + 2.0 * k2x[r] + 2.0 * k3x[r] + k4x[r]);
+                for q in 0..np {
+                    s[r][q] +=
+                        h / 6.0 * (k1s[r][q] + 2.0 * k2s[r][q] + 2.0 * k3s[r][q] + k4s[r][q]);
+                }
+            }
+        }
+    }
+    Shot {
+        end: x,
+        d_end: s,
+        z,
+        d_z,
+    }
+}
+
+/// The exact-penalty merit of a shot: −m_f/MASS_SCALE + PENALTY·(Σ|r̂| +
+/// the ground's and the dry mass's violations, in m and kg).
+fn merit(setup: &Setup, shot: &Shot) -> f64 {
+    let r: f64 = setup.residuals(&shot.end).iter().map(|v| v.abs()).sum();
+    -shot.end[sx::M] / MASS_SCALE_KG + PENALTY * (r + violation(setup, shot))
+}
+
+/// The ground's and the dry mass's violations of a shot \[m, kg\].
+fn violation(setup: &Setup, shot: &Shot) -> f64 {
+    let ground: f64 = shot.z.iter().map(|z| (setup.target.z_m - z).max(0.0)).sum();
+    ground + (setup.model.planar.dry_mass_kg - shot.end[sx::M]).max(0.0)
+}
+
+/// The unit normals of the faces of the polygon inscribed in a disc.
+fn faces() -> impl Iterator<Item = [f64; 2]> {
+    let step = std::f64::consts::TAU / FACES as f64;
+    (0..FACES).map(move |j| {
+        let a = j as f64 * step;
+        [a.cos(), a.sin()]
+    })
+}
+
+/// The control rows over Δp̂ at p (module docs): the thrust's box, the
+/// faces of the gimbal's and of its rate's discs near each vector, and
+/// t_f > 0. Linear in p, so exact.
+fn control_rows(setup: &Setup, p: &[f64]) -> Vec<Row> {
+    let (par, n) = (setup.par, setup.par.n);
+    let sc = &setup.scale;
+    let planar = &setup.model.planar;
+    let mut rows: Vec<Row> = Vec::new();
+    for k in 0..n {
+        let i = par.thrust(k);
+        rows.push((vec![(i, sc[i])], planar.max_thrust_n - p[i]));
+        rows.push((vec![(i, -sc[i])], p[i] - planar.min_thrust_n));
+    }
+    let cos_face = (std::f64::consts::PI / FACES as f64).cos();
+    let c = setup.controls(p);
+    for k in 1..=n {
+        // ‖δ_k‖ ≤ δ_max: n·(δ_k + Δδ_k) ≤ δ_max·cos(π/F).
+        let d = c.delta_rad[k];
+        for nv in faces() {
+            let cols = vec![
+                (par.delta(0, k), nv[0] * sc[par.delta(0, k)]),
+                (par.delta(1, k), nv[1] * sc[par.delta(1, k)]),
+            ];
+            rows.push((
+                cols,
+                planar.max_gimbal_rad * cos_face - (nv[0] * d[0] + nv[1] * d[1]),
+            ));
+        }
+    }
+    for k in 0..n {
+        // ‖δ_{k+1} − δ_k‖ ≤ χ_max·c_k·t_f, c_k = (τ_{k+1} − τ_k)/2.
+        let (d0, d1) = (c.delta_rad[k], c.delta_rad[k + 1]);
+        let diff = [d1[0] - d0[0], d1[1] - d0[1]];
+        let ck = 0.5 * (setup.tau[k + 1] - setup.tau[k]);
+        let reach = planar.max_gimbal_rate_radps * ck * cos_face;
+        for nv in faces() {
+            let mut cols = Vec::with_capacity(5);
+            for j in 0..2 {
+                cols.push((par.delta(j, k + 1), nv[j] * sc[par.delta(j, k + 1)]));
+                if k >= 1 {
+                    cols.push((par.delta(j, k), -nv[j] * sc[par.delta(j, k)]));
+                }
+            }
+            cols.push((par.tf(), -reach * sc[par.tf()]));
+            rows.push((cols, reach * c.tf_s - (nv[0] * diff[0] + nv[1] * diff[1])));
+        }
+    }
+    // t_f stays above a tenth of itself.
+    rows.push((vec![(par.tf(), -sc[par.tf()])], 0.9 * p[par.tf()]));
+    rows
+}
+
+/// Whether p holds its control rows (each row's slack h − G·0 ≥ 0, to
+/// rounding): the thrust's box, and the polygons, which lie inside the
+/// discs.
+fn holds_controls(setup: &Setup, p: &[f64]) -> bool {
+    control_rows(setup, p).iter().all(|(_, h)| *h >= -1e-12)
+}
+
+/// The QP's inequality rows over Δp̂ (then the slacks: 20 of the landing,
+/// one of the ground), at p.
+/// Also returns the nonlinear rows' places: (row, step point) of each
+/// ground row, and the dry mass's row.
+fn inequality_rows(
+    setup: &Setup,
+    p: &[f64],
+    shot: &Shot,
+    ground_slack: usize,
+) -> (Vec<Row>, Vec<(usize, usize)>, usize) {
+    let (par, sc) = (setup.par, &setup.scale);
+    let planar = &setup.model.planar;
+    let mut rows = control_rows(setup, p);
+    let mut ground = Vec::new();
+    // The ground at the step points near it, and the dry mass, each
+    // softened by the one slack g ≥ 0: −∂z·Δp − g ≤ z − z_f.
+    for (i, (z, dz)) in shot.z.iter().zip(&shot.d_z).enumerate() {
+        if z - setup.target.z_m < GROUND_WINDOW_M {
+            ground.push((rows.len(), i));
+            let mut cols: Vec<(usize, f64)> = dz
+                .iter()
+                .enumerate()
+                .map(|(i, v)| (i, -v * sc[i]))
+                .collect();
+            cols.push((ground_slack, -1.0));
+            rows.push((cols, z - setup.target.z_m));
+        }
+    }
+    let mut cols: Vec<(usize, f64)> = shot.d_end[sx::M]
+        .iter()
+        .enumerate()
+        .map(|(i, v)| (i, -v * sc[i]))
+        .collect();
+    cols.push((ground_slack, -1.0));
+    let mass_row = rows.len();
+    rows.push((cols, shot.end[sx::M] - planar.dry_mass_kg));
+    for s in par.len()..=ground_slack {
+        rows.push((vec![(s, -1.0)], 0.0));
+    }
+    (rows, ground, mass_row)
+}
+
+/// The multipliers of a QP's nonlinear rows: the landing's (10), and the
+/// ground's by step point with the dry mass's.
+struct Multipliers {
+    landing: Vec<f64>,
+    ground: Vec<(usize, f64)>,
+    mass: f64,
+}
+
+/// ∇L over p̂ of L = −m_f/MASS_SCALE + Σ y_j·r̂_j − Σ z_i·z(s_i) − z_m·m_f
+/// at a shot: the QP's rows' gradients with its multipliers (its
+/// stationarity is P·x + q + Aᵀ·y + Gᵀ·z = 0). The control rows are linear
+/// and add no curvature.
+fn lagrangian_gradient(setup: &Setup, shot: &Shot, mult: &Multipliers) -> Vec<f64> {
+    let sc = &setup.scale;
+    (0..setup.par.len())
+        .map(|i| {
+            let mut g = -shot.d_end[sx::M][i] / MASS_SCALE_KG;
+            for (j, &(s, scale)) in LANDING.iter().enumerate() {
+                g += mult.landing[j] * shot.d_end[s][i] / scale;
+            }
+            for &(point, z) in &mult.ground {
+                g -= z * shot.d_z[point][i];
+            }
+            g -= mult.mass * shot.d_end[sx::M][i];
+            g * sc[i]
+        })
+        .collect()
+}
+
+/// The least change (scaled) of `p` that zeroes the landing residual `r`
+/// to first order, with the Jacobian of `shot`, keeping the control rows
+/// active at p active: the minimum-norm solution Δ = Mᵀ(MMᵀ)⁺·(−r, 0) of
+/// M = (landing rows; active control rows), by linear algebra rather than
+/// the QP, whose absolute accuracy (~1e-8 in p̂, ~1e-5 m at the landing)
+/// is coarser than the corrections near the end. Used as the
+/// second-order correction of a trial step (Maratos) and for the last
+/// corrections.
+fn correction(setup: &Setup, shot: &Shot, p: &[f64], r: &[f64; 10]) -> Vec<f64> {
+    let np = setup.par.len();
+    let active: Vec<Row> = control_rows(setup, p)
+        .into_iter()
+        .filter(|(cols, h)| {
+            let size = cols.iter().map(|(_, v)| v.abs()).fold(0.0, f64::max);
+            *h <= 1e-9 * size
+        })
+        .collect();
+    let m = 10 + active.len();
+    let mut mat = nalgebra::DMatrix::zeros(m, np);
+    let mut rhs = nalgebra::DVector::zeros(m);
+    for j in 0..10 {
+        let (s, sc) = LANDING[j];
+        for i in 0..np {
+            mat[(j, i)] = shot.d_end[s][i] * setup.scale[i] / sc;
+        }
+        rhs[j] = -r[j];
+    }
+    for (a, (cols, _)) in active.iter().enumerate() {
+        for &(i, v) in cols {
+            mat[(10 + a, i)] = v;
+        }
+    }
+    let gram = &mat * mat.transpose();
+    let y = gram
+        .svd(true, true)
+        .solve(&rhs, 1e-12)
+        .unwrap_or_else(|_| nalgebra::DVector::zeros(m));
+    let step = mat.transpose() * y;
+    (0..np).map(|i| p[i] + step[i] * setup.scale[i]).collect()
+}
+
+/// The damped BFGS update of B (n × n, row-major) by the step s and the
+/// change y of ∇L (Powell's damping keeps B positive definite); the first
+/// update starts from (yᵀy/sᵀy)·I.
+fn bfgs_update(b: &mut [f64], n: usize, s: &[f64], y: &[f64], first: bool) {
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a * b).sum::<f64>();
+    let sy = dot(s, y);
+    if first {
+        let scale = if sy > 0.0 { dot(y, y) / sy } else { 1.0 };
+        b.iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..n {
+            b[i * n + i] = scale;
+        }
+    }
+    let bs: Vec<f64> = (0..n).map(|i| dot(&b[i * n..(i + 1) * n], s)).collect();
+    let sbs = dot(s, &bs);
+    if sbs <= 0.0 {
+        return;
+    }
+    let theta = if sy >= 0.2 * sbs {
+        1.0
+    } else {
+        0.8 * sbs / (sbs - sy)
+    };
+    let r: Vec<f64> = (0..n)
+        .map(|i| theta * y[i] + (1.0 - theta) * bs[i])
+        .collect();
+    let sr = dot(s, &r);
+    if sr <= 0.0 {
+        return;
+    }
+    for i in 0..n {
+        for j in 0..n {
+            b[i * n + j] += r[i] * r[j] / sr - bs[i] * bs[j] / sbs;
+        }
+    }
+}
+
+/// Polish the raw answer's controls `raw` from x0 (module docs).
+pub fn polish(model: &SixDof, x0: [f64; NX], target: &TerminalState, raw: &Controls6) -> Polished6 {
+    let n = raw.thrust_n.len();
+    let par = Params { n };
+    let mut scale = vec![0.0; par.len()];
+    for k in 0..n {
+        scale[par.thrust(k)] = model.planar.max_thrust_n;
+        scale[par.delta(0, k + 1)] = model.planar.max_gimbal_rad;
+        scale[par.delta(1, k + 1)] = model.planar.max_gimbal_rad;
+    }
+    scale[par.tf()] = raw.tf_s;
+    let substeps = (0..n)
+        .map(|k| ((raw.interval_s(k) / STEP_S).ceil() as usize).max(1))
+        .collect();
+    let setup = Setup {
+        model,
+        x0,
+        target,
+        tau: raw.tau.clone(),
+        substeps,
+        par,
+        scale,
+    };
+    let mut p = vec![0.0; par.len()];
+    for k in 0..n {
+        p[par.thrust(k)] = raw.thrust_n[k];
+        p[par.delta(0, k + 1)] = raw.delta_rad[k + 1][0];
+        p[par.delta(1, k + 1)] = raw.delta_rad[k + 1][1];
+    }
+    p[par.tf()] = raw.tf_s;
+    run(&setup, p)
+}
+
+/// p moved to the nearest controls (in the scaled norm) that hold the
+/// control rows: the raw answer's secant rates may break the rate's disc.
+/// Each pass holds the faces near the current vectors; a few passes settle
+/// them.
+fn project(setup: &Setup, mut p: Vec<f64>) -> Result<Vec<f64>, String> {
+    let np = setup.par.len();
+    for _ in 0..8 {
+        if holds_controls(setup, &p) {
+            return Ok(p);
+        }
+        let le = control_rows(setup, &p);
+        let answer = qp::solve(&Problem {
+            p: &vec![1.0; np],
+            dense: None,
+            q: &vec![0.0; np],
+            eq: &[],
+            le: &le,
+        })
+        .map_err(|e| format!("the projection onto the control bounds failed: {e}"))?;
+        for i in 0..np {
+            p[i] += answer.x[i] * setup.scale[i];
+        }
+    }
+    if holds_controls(setup, &p) {
+        Ok(p)
+    } else {
+        Err("the projection onto the control bounds did not settle".into())
+    }
+}
+
+/// One QP step at p (module docs): Δp̂, the multipliers of its nonlinear
+/// rows, its predicted mass gain \[kg\], the landing residual it leaves to
+/// first order, and the ground slack it uses.
+struct Step {
+    dp: Vec<f64>,
+    mult: Multipliers,
+    gain_kg: f64,
+    linear_residual: f64,
+    ground_slack: f64,
+}
+
+/// The QP of one iteration at p, with the proximal weight ε and the
+/// quasi-Newton Hessian `b` when it has one.
+fn qp_step(
+    setup: &Setup,
+    p: &[f64],
+    shot: &Shot,
+    eps: f64,
+    b: Option<&[f64]>,
+) -> Result<Step, String> {
+    let np = setup.par.len();
+    let (landing_slacks, ground_slack) = (np, np + 20);
+    let nv = ground_slack + 1;
+    let r = setup.residuals(&shot.end);
+    let gain: Vec<f64> = (0..np)
+        .map(|i| shot.d_end[sx::M][i] * setup.scale[i])
+        .collect();
+    let mut diag = vec![0.0; nv];
+    diag[..np].iter_mut().for_each(|v| *v = eps);
+    let mut q = vec![PENALTY; nv];
+    for i in 0..np {
+        q[i] = -gain[i] / MASS_SCALE_KG;
+    }
+    let landing_row = |j: usize, i: usize| {
+        let (s, sc) = LANDING[j];
+        shot.d_end[s][i] * setup.scale[i] / sc
+    };
+    let eq: Vec<Row> = (0..10)
+        .map(|j| {
+            let mut cols: Vec<(usize, f64)> = (0..np).map(|i| (i, landing_row(j, i))).collect();
+            cols.push((landing_slacks + j, 1.0));
+            cols.push((landing_slacks + 10 + j, -1.0));
+            (cols, -r[j])
+        })
+        .collect();
+    let (le, ground_rows, mass_row) = inequality_rows(setup, p, shot, ground_slack);
+    let answer = qp::solve(&Problem {
+        p: &diag,
+        dense: b,
+        q: &q,
+        eq: &eq,
+        le: &le,
+    })
+    .map_err(|e| format!("a QP failed: {e}"))?;
+    let dp = answer.x[..np].to_vec();
+    // The linearized landing residual after the step, r + ∇r·Δ, from the
+    // step itself (the QP's own slacks hide its absolute accuracy).
+    let linear_residual = (0..10)
+        .map(|j| (r[j] + (0..np).map(|i| landing_row(j, i) * dp[i]).sum::<f64>()).abs())
+        .sum();
+    Ok(Step {
+        gain_kg: (0..np).map(|i| gain[i] * dp[i]).sum(),
+        linear_residual,
+        ground_slack: answer.x[ground_slack],
+        mult: Multipliers {
+            landing: answer.y.clone(),
+            ground: ground_rows
+                .iter()
+                .map(|&(row, point)| (point, answer.z[row]))
+                .collect(),
+            mass: answer.z[mass_row],
+        },
+        dp,
+    })
+}
+
+/// A trial point, its shot, merit and ratio of actual to predicted merit
+/// decrease.
+struct Trial {
+    p: Vec<f64>,
+    shot: Shot,
+    phi: f64,
+    rho: f64,
+}
+
+/// Second-order corrections of a trial (Maratos): back onto the landing
+/// from the trial's own residual, Newton with each shot's Jacobian, while
+/// they raise the ratio.
+fn corrected(setup: &Setup, base: &Shot, phi: f64, predicted: f64, mut t: Trial) -> Trial {
+    let mut jacobian: Option<Shot> = None;
+    for _ in 0..SECOND_ORDER_CORRECTIONS {
+        let from = jacobian.as_ref().unwrap_or(base);
+        let p2 = correction(setup, from, &t.p, &setup.residuals(&t.shot.end));
+        let shot2 = shoot(setup, &p2);
+        let phi2 = merit(setup, &shot2);
+        let rho2 = (phi - phi2) / predicted.max(1e-16);
+        if rho2 <= t.rho {
+            break;
+        }
+        jacobian = Some(Shot {
+            end: shot2.end,
+            d_end: shot2.d_end.clone(),
+            z: Vec::new(),
+            d_z: Vec::new(),
+        });
+        t = Trial {
+            p: p2,
+            shot: shot2,
+            phi: phi2,
+            rho: rho2,
+        };
+    }
+    t
+}
+
+/// At convergence: the thrust put on its box exactly (the QP holds its rows
+/// to its tolerance, ~1e-9 of T_max), then Newton corrections on the
+/// landing alone, each keeping the active bounds. Whether the residual
+/// reached [`CORRECTED_RESIDUAL`], or why not.
+fn finish_landing(setup: &Setup, p: &mut Vec<f64>, shot: &mut Shot) -> Result<(), String> {
+    let (par, planar) = (setup.par, &setup.model.planar);
+    for k in 0..par.n {
+        let t = &mut p[par.thrust(k)];
+        *t = t.clamp(planar.min_thrust_n, planar.max_thrust_n);
+    }
+    *shot = shoot(setup, p);
+    for _ in 0..CORRECTIONS {
+        let r = setup.residuals(&shot.end);
+        if r.iter().map(|v| v.abs()).sum::<f64>() < CORRECTED_RESIDUAL {
+            break;
+        }
+        let q = correction(setup, shot, p, &r);
+        let next = shoot(setup, &q);
+        if violation(setup, &next) > 0.0 {
+            break;
+        }
+        (*p, *shot) = (q, next);
+    }
+    let residual: f64 = setup.residuals(&shot.end).iter().map(|v| v.abs()).sum();
+    // The control bounds are checked exactly on the flown controls by the
+    // caller (`pipeline::six_dof`).
+    if residual < CORRECTED_RESIDUAL {
+        Ok(())
+    } else {
+        Err(format!(
+            "the last corrections left a landing residual of {residual:.2e}"
+        ))
+    }
+}
+
+/// The iteration (module docs).
+fn run(setup: &Setup, p: Vec<f64>) -> Polished6 {
+    let np = setup.par.len();
+    let mut p = match project(setup, p.clone()) {
+        Ok(p) => p,
+        Err(message) => {
+            let shot = shoot(setup, &p);
+            return Polished6 {
+                controls: setup.controls(&p),
+                end: shot.end,
+                iterations: 0,
+                converged: false,
+                message,
+            };
+        }
+    };
+    let mut shot = shoot(setup, &p);
+    let mut phi = merit(setup, &shot);
+    let mut eps = PROXIMAL_INITIAL;
+    // The quasi-Newton Hessian of the Lagrangian over p̂, after its first
+    // update (before it, the proximal term alone).
+    let mut b = vec![0.0; np * np];
+    let mut updated = false;
+    let mut outcome = Err(String::from("the iteration limit was reached"));
+    let mut iterations = 0;
+    while iterations < MAX_ITERATIONS {
+        iterations += 1;
+        let step = match qp_step(setup, &p, &shot, eps, updated.then_some(&b[..])) {
+            Ok(s) => s,
+            Err(e) => {
+                outcome = Err(e);
+                break;
+            }
+        };
+        let residual: f64 = setup.residuals(&shot.end).iter().map(|v| v.abs()).sum();
+        let v0 = violation(setup, &shot);
+        // Converged where the QP finds no gain worth a step (none at all, or
+        // a loss that its linearized rows ask for, near the rounding).
+        if residual < RESIDUAL_TOLERANCE && v0 == 0.0 && step.gain_kg < MASS_TOLERANCE_KG {
+            outcome = finish_landing(setup, &mut p, &mut shot);
+            break;
+        }
+        let dp = &step.dp;
+        let curvature: f64 = if updated {
+            (0..np)
+                .map(|i| dp[i] * (0..np).map(|j| b[i * np + j] * dp[j]).sum::<f64>())
+                .sum()
+        } else {
+            0.0
+        };
+        let predicted = step.gain_kg / MASS_SCALE_KG - 0.5 * curvature
+            + PENALTY * (residual - step.linear_residual + v0 - step.ground_slack);
+        let trial: Vec<f64> = (0..np).map(|i| p[i] + dp[i] * setup.scale[i]).collect();
+        let next = shoot(setup, &trial);
+        let phi_next = merit(setup, &next);
+        let mut t = Trial {
+            p: trial,
+            shot: next,
+            phi: phi_next,
+            rho: (phi - phi_next) / predicted.max(1e-16),
+        };
+        if t.rho < 0.75 {
+            t = corrected(setup, &shot, phi, predicted, t);
+        }
+        if t.phi < phi && t.rho >= 0.1 {
+            let s: Vec<f64> = (0..np).map(|i| (t.p[i] - p[i]) / setup.scale[i]).collect();
+            let before = lagrangian_gradient(setup, &shot, &step.mult);
+            let after = lagrangian_gradient(setup, &t.shot, &step.mult);
+            let y: Vec<f64> = after.iter().zip(&before).map(|(a, b)| a - b).collect();
+            bfgs_update(&mut b, np, &s, &y, !updated);
+            updated = true;
+            if t.rho > 0.4 {
+                eps = (0.25 * eps).max(PROXIMAL_MIN);
+            }
+            (p, shot, phi) = (t.p, t.shot, t.phi);
+        } else {
+            eps *= 4.0;
+            if eps > PROXIMAL_MAX {
+                outcome = Err("the steps stopped decreasing the merit".into());
+                break;
+            }
+        }
+    }
+    Polished6 {
+        controls: setup.controls(&p),
+        end: shot.end,
+        iterations,
+        converged: outcome.is_ok(),
+        message: outcome.err().unwrap_or_default(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::scenario::Scenario;
+    use crate::problem::six_dof::planar_state;
+
+    /// A short seeded flight's setup and controls: N = 6 node intervals
+    /// over 3 s from a state off the plane.
+    fn setup_and_p(model: &SixDof, target: &TerminalState) -> (Vec<f64>, [f64; NX], Vec<f64>) {
+        let mut x0 = planar_state(&[-40.0, 300.0, 15.0, -70.0, 0.9, -0.25, 105_000.0, 0.12]);
+        x0[sx::Y] = 25.0;
+        x0[sx::VY] = -6.0;
+        x0[sx::W + 2] = 0.02;
+        let _ = target;
+        let tau: Vec<f64> = (0..=6)
+            .map(|k| -1.0 + 2.0 * (k as f64 / 6.0).powf(1.2))
+            .collect();
+        let n = 6;
+        let par = Params { n };
+        let mut p = vec![0.0; par.len()];
+        for k in 0..n {
+            p[par.thrust(k)] = model.planar.min_thrust_n
+                + (0.2 + 0.1 * k as f64) * (model.planar.max_thrust_n - model.planar.min_thrust_n);
+            p[par.delta(0, k + 1)] = 0.12 - 0.03 * k as f64;
+            p[par.delta(1, k + 1)] = 0.02 * (k as f64 - 2.0);
+        }
+        p[par.tf()] = 3.0;
+        (tau, x0, p)
+    }
+
+    /// The shot's sensitivities are the derivatives of the shot itself
+    /// (central differences of the whole RK4 map), end and altitudes.
+    #[test]
+    fn the_shots_sensitivities_match_differences() {
+        let s = Scenario::paper();
+        let model = SixDof::new(&s.vehicle, &s.environment);
+        let (tau, x0, p) = setup_and_p(&model, &s.terminal);
+        let n = 6;
+        let par = Params { n };
+        let setup = Setup {
+            model: &model,
+            x0,
+            target: &s.terminal,
+            substeps: vec![3; n],
+            tau,
+            par,
+            scale: vec![1.0; par.len()],
+        };
+        let shot = shoot(&setup, &p);
+        for i in 0..par.len() {
+            let h = 1e-6 * p[i].abs().max(1.0);
+            let (mut up, mut dn) = (p.clone(), p.clone());
+            up[i] += h;
+            dn[i] -= h;
+            let (a, b) = (shoot(&setup, &up), shoot(&setup, &dn));
+            for r in 0..NX {
+                let fd = (a.end[r] - b.end[r]) / (2.0 * h);
+                let d = shot.d_end[r][i];
+                assert!(
+                    (fd - d).abs() <= 1e-5 * (1.0 + d.abs().max(fd.abs())),
+                    "∂x{r}/∂p{i}: {d} against {fd}"
+                );
+            }
+            for (k, dz) in shot.d_z.iter().enumerate() {
+                let fd = (a.z[k] - b.z[k]) / (2.0 * h);
+                assert!(
+                    (fd - dz[i]).abs() <= 1e-5 * (1.0 + dz[i].abs()),
+                    "∂z{k}/∂p{i}: {} against {fd}",
+                    dz[i]
+                );
+            }
+        }
+    }
+}
