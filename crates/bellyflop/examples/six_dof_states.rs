@@ -119,6 +119,13 @@ fn pipeline(input: &Value, nodes: usize, repeat: usize, direct: DirectSettings) 
         }
         times.sort_by(f64::total_cmp);
         let sol = last.expect("one solve");
+        eprintln!(
+            "{}: {} in {:.0} ms, {:?} polish iterations",
+            state["name"],
+            sol.status.as_str(),
+            times[times.len() / 2],
+            sol.polish_iterations
+        );
         rows.push(json!({
             "name": state["name"],
             "status": sol.status,

@@ -44,6 +44,11 @@ pub const STEP_S: f64 = 0.05;
 /// The faces of the polygon inscribed in each disc.
 pub const FACES: usize = 64;
 
+/// The QP holds each control bound this fraction of its scale inside it:
+/// its iterates meet their rows to ~1e-9 of the scale, and the flown check
+/// allows 1e-9 ([`crate::verify::path::CONTROL_TOLERANCE`]). Costs ~1e-4 kg.
+pub const BOUND_MARGIN: f64 = 1e-6;
+
 /// Iteration limit.
 pub const MAX_ITERATIONS: usize = 60;
 
@@ -71,7 +76,7 @@ const SECOND_ORDER_CORRECTIONS: usize = 3;
 /// The proximal weight ε: first value and bounds.
 const PROXIMAL_INITIAL: f64 = 0.3;
 const PROXIMAL_MIN: f64 = 1e-8;
-const PROXIMAL_MAX: f64 = 1e10;
+const PROXIMAL_MAX: f64 = 1e6;
 
 /// The landing's rows: the slot and the scale of its residual (1 mm and
 /// 1 mm/s at [`RESIDUAL_TOLERANCE`]·1e4; 10 µrad in q; 10 µrad/s in ω).
@@ -402,10 +407,11 @@ fn control_rows(setup: &Setup, p: &[f64]) -> Vec<Row> {
     let mut rows: Vec<Row> = Vec::new();
     for k in 0..n {
         let i = par.thrust(k);
-        rows.push((vec![(i, sc[i])], planar.max_thrust_n - p[i]));
-        rows.push((vec![(i, -sc[i])], p[i] - planar.min_thrust_n));
+        let margin = BOUND_MARGIN * (planar.max_thrust_n - planar.min_thrust_n);
+        rows.push((vec![(i, sc[i])], planar.max_thrust_n - margin - p[i]));
+        rows.push((vec![(i, -sc[i])], p[i] - planar.min_thrust_n - margin));
     }
-    let cos_face = (std::f64::consts::PI / FACES as f64).cos();
+    let cos_face = (std::f64::consts::PI / FACES as f64).cos() * (1.0 - BOUND_MARGIN);
     let c = setup.controls(p);
     for k in 1..=n {
         // ‖δ_k‖ ≤ δ_max: n·(δ_k + Δδ_k) ≤ δ_max·cos(π/F).
@@ -448,7 +454,10 @@ fn control_rows(setup: &Setup, p: &[f64]) -> Vec<Row> {
 /// rounding): the thrust's box, and the polygons, which lie inside the
 /// discs.
 fn holds_controls(setup: &Setup, p: &[f64]) -> bool {
-    control_rows(setup, p).iter().all(|(_, h)| *h >= -1e-12)
+    control_rows(setup, p).iter().all(|(cols, h)| {
+        let size = cols.iter().map(|(_, v)| v.abs()).fold(0.0, f64::max);
+        *h >= -1e-12 * size.max(1.0)
+    })
 }
 
 /// The QP's inequality rows over Δp̂ (then the slacks: 20 of the landing,
@@ -524,7 +533,7 @@ fn lagrangian_gradient(setup: &Setup, shot: &Shot, mult: &Multipliers) -> Vec<f6
 
 /// The least change (scaled) of `p` that zeroes the landing residual `r`
 /// to first order, with the Jacobian of `shot`, keeping the control rows
-/// active at p active: the minimum-norm solution Δ = Mᵀ(MMᵀ)⁺·(−r, 0) of
+/// active at p (within rounding of their bound) active: the minimum-norm solution Δ = Mᵀ(MMᵀ)⁺·(−r, 0) of
 /// M = (landing rows; active control rows), by linear algebra rather than
 /// the QP, whose absolute accuracy (~1e-8 in p̂, ~1e-5 m at the landing)
 /// is coarser than the corrections near the end. Used as the
@@ -536,7 +545,7 @@ fn correction(setup: &Setup, shot: &Shot, p: &[f64], r: &[f64; 10]) -> Vec<f64> 
         .into_iter()
         .filter(|(cols, h)| {
             let size = cols.iter().map(|(_, v)| v.abs()).fold(0.0, f64::max);
-            *h <= 1e-9 * size
+            h.abs() <= 1e-6 * size
         })
         .collect();
     let m = 10 + active.len();
@@ -554,11 +563,17 @@ fn correction(setup: &Setup, shot: &Shot, p: &[f64], r: &[f64; 10]) -> Vec<f64> 
             mat[(10 + a, i)] = v;
         }
     }
+    if !(mat.iter().all(|v| v.is_finite()) && rhs.iter().all(|v| v.is_finite())) {
+        return p.to_vec();
+    }
     let gram = &mat * mat.transpose();
-    let y = gram
-        .svd(true, true)
-        .solve(&rhs, 1e-12)
-        .unwrap_or_else(|_| nalgebra::DVector::zeros(m));
+    // A bounded SVD: a pseudo-inverse where active rows are dependent.
+    let Some(y) = gram
+        .try_svd(true, true, f64::EPSILON, 500)
+        .and_then(|svd| svd.solve(&rhs, 1e-12).ok())
+    else {
+        return p.to_vec();
+    };
     let step = mat.transpose() * y;
     (0..np).map(|i| p[i] + step[i] * setup.scale[i]).collect()
 }
@@ -784,9 +799,10 @@ fn corrected(setup: &Setup, base: &Shot, phi: f64, predicted: f64, mut t: Trial)
 /// reached [`CORRECTED_RESIDUAL`], or why not.
 fn finish_landing(setup: &Setup, p: &mut Vec<f64>, shot: &mut Shot) -> Result<(), String> {
     let (par, planar) = (setup.par, &setup.model.planar);
+    let margin = BOUND_MARGIN * (planar.max_thrust_n - planar.min_thrust_n);
     for k in 0..par.n {
         let t = &mut p[par.thrust(k)];
-        *t = t.clamp(planar.min_thrust_n, planar.max_thrust_n);
+        *t = t.clamp(planar.min_thrust_n + margin, planar.max_thrust_n - margin);
     }
     *shot = shoot(setup, p);
     for _ in 0..CORRECTIONS {
@@ -796,7 +812,7 @@ fn finish_landing(setup: &Setup, p: &mut Vec<f64>, shot: &mut Shot) -> Result<()
         }
         let q = correction(setup, shot, p, &r);
         let next = shoot(setup, &q);
-        if violation(setup, &next) > 0.0 {
+        if violation(setup, &next) > 0.0 || !holds_controls(setup, &q) {
             break;
         }
         (*p, *shot) = (q, next);
