@@ -50,7 +50,7 @@ pub const FACES: usize = 64;
 pub const BOUND_MARGIN: f64 = 1e-6;
 
 /// Iteration limit.
-pub const MAX_ITERATIONS: usize = 60;
+pub const MAX_ITERATIONS: usize = 100;
 
 /// Converged when the scaled landing residual Σ|r̂| is below this (0.1 mm
 /// in position) ...
