@@ -532,23 +532,63 @@ fn lagrangian_gradient(setup: &Setup, shot: &Shot, mult: &Multipliers) -> Vec<f6
 }
 
 /// The least change (scaled) of `p` that zeroes the landing residual `r`
-/// to first order, with the Jacobian of `shot`, keeping the control rows
-/// active at p (within rounding of their bound) active: the minimum-norm solution Δ = Mᵀ(MMᵀ)⁺·(−r, 0) of
-/// M = (landing rows; active control rows), by linear algebra rather than
-/// the QP, whose absolute accuracy (~1e-8 in p̂, ~1e-5 m at the landing)
-/// is coarser than the corrections near the end. Used as the
+/// to first order, with the Jacobian of `shot`, and holds every control
+/// row: the minimum-norm solution Δ = Mᵀ(MMᵀ)⁺·b of M = (landing rows;
+/// the control rows held as equalities), b = (−r; their slacks), by linear
+/// algebra rather than the QP, whose absolute accuracy (~1e-8 in p̂,
+/// ~1e-5 m at the landing) is coarser than the corrections near the end.
+/// The rows held are those active at p (within rounding of their bound),
+/// then any that the last Δ broke, put on their bound, for a few rounds
+/// (an active set, since a correction that leaves the control bounds is
+/// no correction: the finish would clamp it back off the landing). `None`
+/// where the rounds do not settle or the linear algebra fails. Used as the
 /// second-order correction of a trial step (Maratos) and for the last
 /// corrections.
-fn correction(setup: &Setup, shot: &Shot, p: &[f64], r: &[f64; 10]) -> Vec<f64> {
+fn correction(setup: &Setup, shot: &Shot, p: &[f64], r: &[f64; 10]) -> Option<Vec<f64>> {
     let np = setup.par.len();
-    let active: Vec<Row> = control_rows(setup, p)
-        .into_iter()
-        .filter(|(cols, h)| {
-            let size = cols.iter().map(|(_, v)| v.abs()).fold(0.0, f64::max);
-            h.abs() <= 1e-6 * size
-        })
+    let rows = control_rows(setup, p);
+    let size = |cols: &[(usize, f64)]| cols.iter().map(|(_, v)| v.abs()).fold(0.0, f64::max);
+    let mut held: Vec<usize> = (0..rows.len())
+        .filter(|&j| rows[j].1.abs() <= 1e-6 * size(&rows[j].0))
         .collect();
-    let m = 10 + active.len();
+    for _ in 0..CORRECTION_ROUNDS {
+        let step = min_norm_step(setup, shot, r, &rows, &held)?;
+        // The most broken row of each bound (rows over the same
+        // variables: a disc's faces, a thrust's two sides).
+        let mut worst: std::collections::BTreeMap<Vec<usize>, (f64, usize)> = Default::default();
+        for (j, (cols, h)) in rows.iter().enumerate() {
+            let g: f64 = cols.iter().map(|&(i, v)| v * step[i]).sum();
+            let excess = (g - h) / size(cols).max(1.0);
+            if excess > 1e-12 && !held.contains(&j) {
+                let key = cols.iter().map(|&(i, _)| i).collect();
+                let e = worst.entry(key).or_insert((excess, j));
+                if excess > e.0 {
+                    *e = (excess, j);
+                }
+            }
+        }
+        if worst.is_empty() {
+            return Some((0..np).map(|i| p[i] + step[i] * setup.scale[i]).collect());
+        }
+        held.extend(worst.values().map(|&(_, j)| j));
+    }
+    None
+}
+
+/// The rounds of [`correction`]'s active set.
+const CORRECTION_ROUNDS: usize = 6;
+
+/// [`correction`]'s Δ (scaled) for the control rows `held` as equalities
+/// G·Δ = h (on their bound).
+fn min_norm_step(
+    setup: &Setup,
+    shot: &Shot,
+    r: &[f64; 10],
+    rows: &[Row],
+    held: &[usize],
+) -> Option<nalgebra::DVector<f64>> {
+    let np = setup.par.len();
+    let m = 10 + held.len();
     let mut mat = nalgebra::DMatrix::zeros(m, np);
     let mut rhs = nalgebra::DVector::zeros(m);
     for j in 0..10 {
@@ -558,24 +598,22 @@ fn correction(setup: &Setup, shot: &Shot, p: &[f64], r: &[f64; 10]) -> Vec<f64> 
         }
         rhs[j] = -r[j];
     }
-    for (a, (cols, _)) in active.iter().enumerate() {
+    for (a, &j) in held.iter().enumerate() {
+        let (cols, h) = &rows[j];
         for &(i, v) in cols {
             mat[(10 + a, i)] = v;
         }
+        rhs[10 + a] = *h;
     }
     if !(mat.iter().all(|v| v.is_finite()) && rhs.iter().all(|v| v.is_finite())) {
-        return p.to_vec();
+        return None;
     }
     let gram = &mat * mat.transpose();
-    // A bounded SVD: a pseudo-inverse where active rows are dependent.
-    let Some(y) = gram
+    // A bounded SVD: a pseudo-inverse where held rows are dependent.
+    let y = gram
         .try_svd(true, true, f64::EPSILON, 500)
-        .and_then(|svd| svd.solve(&rhs, 1e-12).ok())
-    else {
-        return p.to_vec();
-    };
-    let step = mat.transpose() * y;
-    (0..np).map(|i| p[i] + step[i] * setup.scale[i]).collect()
+        .and_then(|svd| svd.solve(&rhs, 1e-12).ok())?;
+    Some(mat.transpose() * y)
 }
 
 /// The damped BFGS update of B (n × n, row-major) by the step s and the
@@ -770,7 +808,9 @@ fn corrected(setup: &Setup, base: &Shot, phi: f64, predicted: f64, mut t: Trial)
     let mut jacobian: Option<Shot> = None;
     for _ in 0..SECOND_ORDER_CORRECTIONS {
         let from = jacobian.as_ref().unwrap_or(base);
-        let p2 = correction(setup, from, &t.p, &setup.residuals(&t.shot.end));
+        let Some(p2) = correction(setup, from, &t.p, &setup.residuals(&t.shot.end)) else {
+            break;
+        };
         let shot2 = shoot(setup, &p2);
         let phi2 = merit(setup, &shot2);
         let rho2 = (phi - phi2) / predicted.max(1e-16);
@@ -810,7 +850,9 @@ fn finish_landing(setup: &Setup, p: &mut Vec<f64>, shot: &mut Shot) -> Result<()
         if r.iter().map(|v| v.abs()).sum::<f64>() < CORRECTED_RESIDUAL {
             break;
         }
-        let q = correction(setup, shot, p, &r);
+        let Some(q) = correction(setup, shot, p, &r) else {
+            break;
+        };
         let next = shoot(setup, &q);
         if violation(setup, &next) > 0.0 || !holds_controls(setup, &q) {
             break;
