@@ -464,9 +464,9 @@ fn the_six_dof_pipeline_claims_what_its_flown_controls_do() {
 /// Issue 38's accuracy in 3-D: where the polished default says `solved`,
 /// its controls, flown by DOP853, land within 1e-3 m and 1e-3 m/s, with no
 /// ground contact before t_f and every bound held along the flight; where
-/// it does not, it says why and publishes no flown controls. On the three
-/// fixture states the polish lands two (box3d2's raw answer, flown, misses
-/// by 117 m and its polish does not converge in its iterations).
+/// it does not, it says why and publishes no flown controls. The polish
+/// lands all three fixture states (box3d2's raw answer, flown, misses by
+/// 117 m and goes 75 m below the pad).
 #[test]
 fn the_polished_six_dof_answer_lands_and_holds_its_bounds() {
     use bellyflop::method::observer::Silent;
@@ -513,5 +513,5 @@ fn the_polished_six_dof_answer_lands_and_holds_its_bounds() {
             assert!(sol.controls_flown.is_none());
         }
     }
-    assert!(solved >= 2, "{solved} of 3 solved");
+    assert_eq!(solved, 3, "{solved} of 3 solved");
 }

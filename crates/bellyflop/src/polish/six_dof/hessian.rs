@@ -1,0 +1,197 @@
+//! The Hessian of the 6-DoF polish's Lagrangian in its parameters p, exact
+//! to rounding through the RK4 steps of the shot (as the planar
+//! [`crate::polish::hessian`]).
+//!
+//! Λ(p) = λ_fᵀ·x(t_f; p) + Σ_i ζ_i·z(s_i; p), with λ_f and ζ from the last
+//! QP's multipliers ([`super::lagrangian_gradient`] is ∇Λ). One RK4 step in
+//! normalized time s with step h,
+//!
+//!   x' = x + (h/6)·(K₁ + 2K₂ + 2K₃ + K₄),   K_i = t_f·f(Y_i, u(s_i; p)),
+//!   Y₁ = x,  Y₂ = x + (h/2)·K₁,  Y₃ = x + (h/2)·K₂,  Y₄ = x + h·K₃,
+//!
+//! is linear in (x, K) except for the four stage equations. With κ_i =
+//! ∂Λ/∂K_i, from λ' = ∂Λ/∂x' backwards (G_i = t_f·∂f/∂x at stage i),
+//!
+//!   κ₄ = (h/6)·λ',  κ₃ = (h/3)·λ' + h·G₄ᵀκ₄,  κ₂ = (h/3)·λ' + (h/2)·G₃ᵀκ₃,
+//!   κ₁ = (h/6)·λ' + (h/2)·G₂ᵀκ₂,   λ = λ' + Σ G_iᵀκ_i (+ ζ at a ground point),
+//!
+//! the Hessian is the sum over every stage of
+//!
+//!   Z_iᵀ · ∇²_{(Y, u, t_f)} [t_f·κ_iᵀ f(Y, u)] · Z_i  +  Σ_j g_ij·∇²χ_j(p),
+//!
+//! Z_i = ∂(Y_i, u_i, t_f)/∂p the stage's forward sensitivities, and the last
+//! term the curvature of the secant rate χ_j = Δδ_j/(c_k·t_f) in p, weighted
+//! by g_ij = t_f·κ_iᵀ ∂f/∂χ_j (u's thrust is linear in p). The weighted
+//! second derivatives of f come from the model's term-by-term
+//! [`Differentiable::point_derivatives`].
+
+use super::{control_partials, shoot_visiting, Setup, Shot, Stage};
+use crate::collocation::derivatives::{Differentiable, PointDerivatives};
+use crate::problem::six_dof::{self as six, su, NU, NX};
+
+/// The stage's inputs (Y, u) and t_f.
+const NV: usize = NX + NU + 1;
+const TF: usize = NX + NU;
+
+/// ∇²Λ(p) (P², row-major, symmetric) for λ(t_f) = `lambda_f` and the
+/// ground's weights ζ at step points `ground` (module docs).
+pub(super) fn hessian(
+    setup: &Setup,
+    p: &[f64],
+    lambda_f: &[f64; NX],
+    ground: &[(usize, f64)],
+) -> Vec<f64> {
+    let kappa = stage_multipliers(setup, p, lambda_f, ground);
+    let np = setup.par.len();
+    let c = setup.controls(p);
+    let tf = c.tf_s;
+    let mut h = vec![0.0; np * np];
+    let mut at = 0;
+    let mut partials = Vec::with_capacity(8);
+    let mut point = PointDerivatives::<NX, { NX + NU }>::default();
+    let ones = [1.0; NX + NU];
+    let mut z = vec![0.0; NV * np];
+    let mut wz = vec![0.0; NV * np];
+    let _: Shot = shoot_visiting(setup, p, &mut |st: &Stage| {
+        let kap = &kappa[at];
+        at += 1;
+        let u = c.at_fraction(st.k, st.a);
+        let input: [f64; NX + NU] =
+            std::array::from_fn(|i| if i < NX { st.y[i] } else { u[i - NX] });
+        setup
+            .model
+            .point_derivatives::<NX, { NX + NU }>(&input, &ones, kap, &[], &mut point);
+        // W = ∇²_{(Y, u, t_f)} [t_f·κᵀf].
+        let mut w = [[0.0; NV]; NV];
+        for a in 0..NX + NU {
+            for b in 0..NX + NU {
+                w[a][b] = tf * point.hess[a][b];
+            }
+            let g: f64 = (0..NX).map(|r| kap[r] * point.jac[r][a]).sum();
+            w[a][TF] = g;
+            w[TF][a] = g;
+        }
+        // Z = ∂(Y, u, t_f)/∂p.
+        z.iter_mut().for_each(|v| *v = 0.0);
+        for r in 0..NX {
+            z[r * np..(r + 1) * np].copy_from_slice(&st.dy[r]);
+        }
+        control_partials(setup, &c, st.k, st.a, &mut partials);
+        for &(ui, pi, v) in &partials {
+            z[(NX + ui) * np + pi] += v;
+        }
+        z[TF * np + setup.par.tf()] = 1.0;
+        add_quadratic_form(&mut h, np, &w, &z, &mut wz);
+        // The secant rates' own curvature in (δ_k, δ_{k+1}, t_f).
+        let dt = c.interval_s(st.k);
+        for j in 0..2 {
+            let g = tf * w[NX + su::CHI + j][TF];
+            let (ti, chi) = (setup.par.tf(), u[su::CHI + j]);
+            let mut add = |a: usize, b: usize, v: f64| {
+                h[a * np + b] += v;
+                if a != b {
+                    h[b * np + a] += v;
+                }
+            };
+            add(setup.par.delta(j, st.k + 1), ti, -g / (dt * tf));
+            if st.k >= 1 {
+                add(setup.par.delta(j, st.k), ti, g / (dt * tf));
+            }
+            add(ti, ti, g * 2.0 * chi / (tf * tf));
+        }
+    });
+    // Symmetric to the last bit (the two triangles summed in different
+    // orders differ by rounding).
+    for i in 0..np {
+        for j in 0..i {
+            let v = 0.5 * (h[i * np + j] + h[j * np + i]);
+            h[i * np + j] = v;
+            h[j * np + i] = v;
+        }
+    }
+    h
+}
+
+/// H += Zᵀ·W·Z (Z: NV rows of P; `wz` scratch of the same size).
+fn add_quadratic_form(h: &mut [f64], np: usize, w: &[[f64; NV]; NV], z: &[f64], wz: &mut [f64]) {
+    wz.iter_mut().for_each(|v| *v = 0.0);
+    for a in 0..NV {
+        let out = &mut wz[a * np..(a + 1) * np];
+        for b in 0..NV {
+            let wab = w[a][b];
+            if wab != 0.0 {
+                for (o, v) in out.iter_mut().zip(&z[b * np..(b + 1) * np]) {
+                    *o += wab * v;
+                }
+            }
+        }
+    }
+    for a in 0..NV {
+        let (za, wza) = (&z[a * np..(a + 1) * np], &wz[a * np..(a + 1) * np]);
+        for i in 0..np {
+            let zi = za[i];
+            if zi != 0.0 {
+                let row = &mut h[i * np..(i + 1) * np];
+                for (o, v) in row.iter_mut().zip(wza) {
+                    *o += zi * v;
+                }
+            }
+        }
+    }
+}
+
+/// κ_i of every stage in the order [`shoot_visiting`] shows them (module
+/// docs), by one pass of the shot for the stage states and one backwards.
+fn stage_multipliers(
+    setup: &Setup,
+    p: &[f64],
+    lambda_f: &[f64; NX],
+    ground: &[(usize, f64)],
+) -> Vec<[f64; NX]> {
+    let c = setup.controls(p);
+    let tf = c.tf_s;
+    // G_i = t_f·∂f/∂x at each stage.
+    let mut g: Vec<[[f64; NX]; NX]> = Vec::new();
+    shoot_visiting(setup, p, &mut |st: &Stage| {
+        let u = c.at_fraction(st.k, st.a);
+        let (_, jac) = six::jacobian(setup.model, st.y, &u);
+        g.push(std::array::from_fn(|r| {
+            std::array::from_fn(|m| tf * jac[r][m])
+        }));
+    });
+    let steps: Vec<f64> = (0..setup.par.n)
+        .flat_map(|k| {
+            let m = setup.substeps[k];
+            let h = 0.5 * (setup.tau[k + 1] - setup.tau[k]) / m as f64;
+            std::iter::repeat_n(h, m)
+        })
+        .collect();
+    // ζ by step: step n ≥ 1 starts at ground point n − 1.
+    let mut zeta = vec![0.0; steps.len()];
+    for &(point, weight) in ground {
+        zeta[point + 1] += weight;
+    }
+    let gt = |g: &[[f64; NX]; NX], v: &[f64; NX]| -> [f64; NX] {
+        std::array::from_fn(|m| (0..NX).map(|r| g[r][m] * v[r]).sum())
+    };
+    let mut kappa = vec![[0.0; NX]; 4 * steps.len()];
+    let mut lambda = *lambda_f;
+    for n in (0..steps.len()).rev() {
+        let h = steps[n];
+        let gs = &g[4 * n..4 * n + 4];
+        let k4: [f64; NX] = std::array::from_fn(|r| h / 6.0 * lambda[r]);
+        let g4 = gt(&gs[3], &k4);
+        let k3: [f64; NX] = std::array::from_fn(|r| h / 3.0 * lambda[r] + h * g4[r]);
+        let g3 = gt(&gs[2], &k3);
+        let k2: [f64; NX] = std::array::from_fn(|r| h / 3.0 * lambda[r] + 0.5 * h * g3[r]);
+        let g2 = gt(&gs[1], &k2);
+        let k1: [f64; NX] = std::array::from_fn(|r| h / 6.0 * lambda[r] + 0.5 * h * g2[r]);
+        let g1 = gt(&gs[0], &k1);
+        for r in 0..NX {
+            lambda[r] += g1[r] + g2[r] + g3[r] + g4[r];
+        }
+        lambda[crate::problem::six_dof::sx::Z] += zeta[n];
+        kappa[4 * n..4 * n + 4].copy_from_slice(&[k1, k2, k3, k4]);
+    }
+    kappa
+}
