@@ -412,7 +412,7 @@ fn a_six_dof_scenario_is_refused_not_solved_as_planar() {
         assert!(
             stderr.contains("model = \"6dof\" is not yet available in")
                 && stderr.contains(&command)
-                && stderr.contains("method::direct::six_dof::solve_cold"),
+                && stderr.contains("bellyflop::pipeline::six_dof::solve"),
             "{args:?}: {stderr}"
         );
         assert!(!stderr.contains("solving"), "{args:?}: {stderr}");

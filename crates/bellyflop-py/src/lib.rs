@@ -574,15 +574,16 @@ fn solve(
         .map_err(input_error)?;
     let (value, core_ms, viewer) = detached(py, move || {
         let start = Instant::now();
-        let solution = s.solve(&mut bellyflop::method::observer::Silent);
+        let solution = s.solve(&mut bellyflop::method::observer::Silent)?;
         let propagation = report::propagate(&s.scenario, &solution, interpolation);
         let v = report::solve_json(&s.scenario, &solution, &propagation);
         let core_ms = start.elapsed().as_secs_f64() * 1e3;
         // After the clock: the viewer's data is not part of the solve.
         let flown = propagation.as_ref().ok();
         let data = viewer::solve_data(&s.scenario, &solution, &v, flown);
-        (v, core_ms, data)
-    })?;
+        Ok::<_, bellyflop::InputError>((v, core_ms, data))
+    })?
+    .map_err(input_error)?;
     Ok(Solution {
         value,
         core_ms,
