@@ -184,7 +184,7 @@ macro_rules! doc {
 pub const DOCS: &[Doc] = &[
     doc!("", "name", "", Allowed::Text, "Name of the case, printed in the summary."),
     doc!("", "model", "", Allowed::Choice(MODELS),
-        "The model: \"planar\" (the default when left out) is the paper's problem in the x-z plane; \"6dof\" is the 6-DoF model (issue 38), which also reads the out-of-plane fields of [initial] and environment.wind_y_mps (each 6-DoF only, default 0). `bellyflop solve` solves only \"planar\" so far; the library's method::direct::six_dof::solve_cold solves \"6dof\"."),
+        "The model: \"planar\" (the default when left out) is the paper's problem in the x-z plane; \"6dof\" is the 6-DoF model (issue 38), which also reads the out-of-plane fields of [initial] and environment.wind_y_mps (each 6-DoF only, default 0). `bellyflop solve` solves both (\"6dof\" by the library's pipeline::six_dof::solve); sweep, sim and montecarlo take only \"planar\"."),
     // Vehicle (paper Table 1).
     doc!("vehicle", "dry_mass_kg", "kg", MASS,
         "Dry mass m_dry: the final mass must stay at or above it (Eq. 4). Below initial.mass_kg."),

@@ -126,6 +126,7 @@ mod tests {
             &Default::default(),
             &mut bellyflop::method::observer::Silent,
         )
+        .expect("a planar scenario")
     }
 
     #[test]

@@ -30,7 +30,15 @@ pub fn run(args: SolveArgs) -> ExitCode {
     }
     let quiet = args.quiet || args.json;
     let mut progress = Progress { quiet };
-    let (solution, times_ms) = solve_repeated(&scenario, &settings, &mut progress, args.repeat);
+    // The planar pipeline refuses a 6-DoF scenario (dispatched above).
+    let (solution, times_ms) =
+        match solve_repeated(&scenario, &settings, &mut progress, args.repeat) {
+            Ok(solved) => solved,
+            Err(e) => {
+                errln!("error: {e}");
+                return ExitCode::from(exit::BAD_INPUT);
+            }
+        };
     let propagation = landing::propagate(&scenario, &solution, args.interpolation);
     // One JSON object: printed by --json, and written as solution.json by --out.
     let mut v = solution.to_json();
@@ -69,11 +77,11 @@ fn solve_repeated(
     settings: &SolverSettings,
     progress: &mut Progress,
     repeat: u32,
-) -> (Solution, Vec<f64>) {
-    let mut solution = bellyflop::solve(scenario, settings, progress);
+) -> Result<(Solution, Vec<f64>), bellyflop::InputError> {
+    let mut solution = bellyflop::solve(scenario, settings, progress)?;
     let mut times_ms = vec![solution.solve_time_ms];
     for _ in 1..repeat {
-        let again = bellyflop::solve(scenario, settings, &mut Progress { quiet: true });
+        let again = bellyflop::solve(scenario, settings, &mut Progress { quiet: true })?;
         if again.status != solution.status || again.final_mass_kg != solution.final_mass_kg {
             errln!(
                 "warning: a repeated solve differed: {} at {} kg, then {} at {} kg",
@@ -89,7 +97,7 @@ fn solve_repeated(
     times_ms.sort_by(f64::total_cmp);
     let k = times_ms.len();
     solution.solve_time_ms = 0.5 * (times_ms[(k - 1) / 2] + times_ms[k / 2]);
-    (solution, times_ms)
+    Ok((solution, times_ms))
 }
 
 /// Per-iteration progress on stderr.

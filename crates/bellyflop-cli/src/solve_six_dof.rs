@@ -1,8 +1,11 @@
 //! `bellyflop solve` on a 6-DoF scenario (`model = "6dof"`, issue 38): the
 //! library's 6-DoF pipeline (the direct method's cold solve, the 6-DoF
 //! polish, the flown check), its summary or JSON, and with `--out` its
-//! `solution.json` and `trajectory.csv` (the node table, columns named by
-//! the model). The plots and the viewer are planar only for now.
+//! `solution.json`, `trajectory.csv` (the node table, columns named by
+//! the model) and the plots `path` and `histories` as SVG and PNG
+//! ([`crate::plot::six_dof`]: the path in the x–z, y–z and top views, and
+//! the thrust, gimbal, attitude, body-rate, mass and speed histories). The
+//! convergence plot and the viewer are planar only for now.
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -15,7 +18,7 @@ use bellyflop::{Scenario, SolverSettings};
 
 use crate::args::SolveArgs;
 use crate::error::OutputError;
-use crate::{exit, files, load, output};
+use crate::{exit, files, load, output, plot};
 
 /// Solve the 6-DoF `scenario` (module docs); the exit code is the status's.
 pub fn run(
@@ -60,7 +63,7 @@ pub fn run(
         print_summary(&sol);
     }
     if let Some(dir) = &args.out {
-        let written = write(dir, &sol, &v);
+        let written = write(dir, scenario, &sol, &v);
         if let Err(code) = output::report(dir, written, quiet) {
             return code;
         }
@@ -68,9 +71,10 @@ pub fn run(
     ExitCode::from(sol.status.exit_code() as u8)
 }
 
-/// `solution.json` and `trajectory.csv` into `dir`.
+/// `solution.json`, `trajectory.csv` and the plots into `dir`.
 fn write(
     dir: &Path,
+    scenario: &Scenario,
     sol: &SixDofSolution,
     json: &serde_json::Value,
 ) -> Result<Vec<std::path::PathBuf>, OutputError> {
@@ -79,7 +83,10 @@ fn write(
     files::write_file(&json_path, format!("{json}\n"))?;
     let csv_path = dir.join("trajectory.csv");
     files::write_file(&csv_path, sol.to_csv())?;
-    Ok(vec![json_path, csv_path])
+    let mut written = vec![json_path, csv_path];
+    let data = plot::six_dof::SixDofPlot::new(scenario, sol);
+    written.extend(plot::six_dof::render_all(dir, &data)?);
+    Ok(written)
 }
 
 /// The human summary on stdout.

@@ -81,7 +81,13 @@ pub fn run(args: &SweepArgs) -> ExitCode {
     let mut runs = Vec::with_capacity(scenarios.len());
     let mut exit = 0u8;
     for s in &scenarios {
-        let sol = s.solve(&mut Silent);
+        let sol = match s.solve(&mut Silent) {
+            Ok(sol) => sol,
+            Err(e) => {
+                errln!("error: {e}");
+                return ExitCode::from(exit::BAD_INPUT);
+            }
+        };
         let prop = landing::propagate(&s.scenario, &sol, args.interpolation);
         if sol.status != Status::Solved && exit == 0 {
             exit = sol.status.exit_code() as u8;

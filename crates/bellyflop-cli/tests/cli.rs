@@ -412,7 +412,7 @@ fn a_six_dof_scenario_is_refused_not_solved_as_planar() {
         assert!(
             stderr.contains("model = \"6dof\" is not yet available in")
                 && stderr.contains(&command)
-                && stderr.contains("method::direct::six_dof::solve_cold"),
+                && stderr.contains("bellyflop::pipeline::six_dof::solve"),
             "{args:?}: {stderr}"
         );
         assert!(!stderr.contains("solving"), "{args:?}: {stderr}");
@@ -459,6 +459,36 @@ fn solve_solves_a_six_dof_scenario() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("solution.json")).unwrap()).unwrap();
     assert_eq!(json["status"], v["status"]);
+    // The 6-DoF plots, named as the planar ones; no convergence plot.
+    for stem in ["path", "histories"] {
+        let svg = std::fs::read_to_string(out.join(format!("{stem}.svg"))).unwrap();
+        assert!(
+            svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"),
+            "{stem}"
+        );
+        assert!(svg.contains("6-DoF"), "{stem}: no title");
+        let png = std::fs::read(out.join(format!("{stem}.png"))).unwrap();
+        assert!(
+            png.starts_with(b"\x89PNG\r\n\x1a\n") && png.len() > 10_000,
+            "{stem}"
+        );
+    }
+    let path_svg = std::fs::read_to_string(out.join("path.svg")).unwrap();
+    for view in ["side view x–z", "side view y–z", "top view x–y"] {
+        assert!(path_svg.contains(view), "{view}");
+    }
+    let histories_svg = std::fs::read_to_string(out.join("histories.svg")).unwrap();
+    for panel in [
+        "thrust",
+        "gimbal angles",
+        "tilt",
+        "body rates",
+        "mass",
+        "speed",
+    ] {
+        assert!(histories_svg.contains(panel), "{panel}");
+    }
+    assert!(!out.join("convergence.svg").exists());
     let (code, _, stderr) = bellyflop(&["solve", "--scenario", path, "--method", "scvx"]);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("solves only the planar model"), "{stderr}");

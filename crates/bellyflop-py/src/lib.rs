@@ -17,6 +17,7 @@ use bellyflop::sim::{RunOutcome, TouchdownLimits};
 // The Python `Scenario` is a whole scenario file: the problem and its
 // `[solver]` settings (bellyflop::Case).
 use bellyflop::input::overrides::Overrides;
+use bellyflop::input::scenario::ModelKind;
 use bellyflop::output::{report, viewer};
 use bellyflop::{Case as CoreScenario, Formulation, Method};
 use numpy::PyArray1;
@@ -28,6 +29,7 @@ use pyo3::IntoPyObjectExt;
 use serde_json::Value;
 
 mod convert;
+mod six_dof;
 
 use convert::{json_to_py, py_to_toml};
 
@@ -540,9 +542,11 @@ fn parse_interpolation(s: &str) -> PyResult<Interpolation> {
 }
 
 /// Solve `scenario` with the overrides of `bellyflop solve` and return the
-/// `--json` object as a Solution.
+/// `--json` object: a Solution for a planar scenario, a
+/// [`six_dof::SixDofSolution`] for a 6-DoF one (whose solve refuses the
+/// arguments that do not apply to it, naming them).
 #[pyfunction]
-#[pyo3(signature = (scenario, nodes=None, intervals=None, method=None, formulation=None, interpolation="pchip", mesh_tolerance=None, fast=false))]
+#[pyo3(signature = (scenario, nodes=None, intervals=None, method=None, formulation=None, interpolation=None, mesh_tolerance=None, fast=false))]
 #[allow(clippy::too_many_arguments)] // Python's keyword arguments, one each
 fn solve(
     py: Python<'_>,
@@ -551,10 +555,26 @@ fn solve(
     intervals: Option<usize>,
     method: Option<&str>,
     formulation: Option<&str>,
-    interpolation: &str,
+    interpolation: Option<&str>,
     mesh_tolerance: Option<f64>,
     fast: bool,
-) -> PyResult<Solution> {
+) -> PyResult<Py<PyAny>> {
+    if scenario.inner.scenario.model == ModelKind::SixDof {
+        six_dof::Given {
+            method,
+            formulation,
+            interpolation,
+            mesh_tolerance,
+        }
+        .check()?;
+        let overrides = Overrides {
+            nodes,
+            intervals,
+            fast,
+            ..Overrides::default()
+        };
+        return six_dof::solve(py, scenario.inner.clone(), overrides)?.into_py_any(py);
+    }
     let overrides = Overrides {
         nodes,
         intervals,
@@ -563,31 +583,28 @@ fn solve(
         mesh_tolerance,
         fast,
     };
-    let interpolation = parse_interpolation(interpolation)?;
-    scenario
-        .inner
-        .scenario
-        .require_planar("the Python package's solve")
-        .map_err(input_error)?;
+    let interpolation = parse_interpolation(interpolation.unwrap_or("pchip"))?;
     let s = overrides
         .apply(scenario.inner.clone())
         .map_err(input_error)?;
     let (value, core_ms, viewer) = detached(py, move || {
         let start = Instant::now();
-        let solution = s.solve(&mut bellyflop::method::observer::Silent);
+        let solution = s.solve(&mut bellyflop::method::observer::Silent)?;
         let propagation = report::propagate(&s.scenario, &solution, interpolation);
         let v = report::solve_json(&s.scenario, &solution, &propagation);
         let core_ms = start.elapsed().as_secs_f64() * 1e3;
         // After the clock: the viewer's data is not part of the solve.
         let flown = propagation.as_ref().ok();
         let data = viewer::solve_data(&s.scenario, &solution, &v, flown);
-        (v, core_ms, data)
-    })?;
-    Ok(Solution {
+        Ok::<_, bellyflop::InputError>((v, core_ms, data))
+    })?
+    .map_err(input_error)?;
+    Solution {
         value,
         core_ms,
         viewer,
-    })
+    }
+    .into_py_any(py)
 }
 
 /// Fly run `run` of campaign `seed` (as `bellyflop sim --seed S --run K`).
@@ -1013,6 +1030,7 @@ fn _bellyflop(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Scenario>()?;
     m.add_class::<SimConfig>()?;
     m.add_class::<Solution>()?;
+    m.add_class::<six_dof::SixDofSolution>()?;
     m.add_class::<Flight>()?;
     m.add_class::<CampaignTable>()?;
     m.add_function(wrap_pyfunction!(solve, m)?)?;

@@ -191,7 +191,7 @@ fn cold_solve(c: &mut Criterion) {
             s.solver.method = method;
             g.bench_with_input(BenchmarkId::new(method.as_str(), n), &s, |b, s| {
                 b.iter(|| {
-                    let sol = black_box(s).solve(&mut Silent);
+                    let sol = black_box(s).solve(&mut Silent).expect("a planar scenario");
                     assert_eq!(sol.status, Status::Solved, "N = {n}");
                     sol
                 })

@@ -58,7 +58,7 @@ fn cold_solve(c: &mut Criterion) {
         let s = paper(n);
         g.bench_with_input(BenchmarkId::from_parameter(n), &s, |b, s| {
             b.iter(|| {
-                let sol = black_box(s).solve(&mut Silent);
+                let sol = black_box(s).solve(&mut Silent).expect("a planar scenario");
                 assert_eq!(sol.status, bellyflop::Status::Solved, "N = {n}");
                 sol
             })
@@ -84,7 +84,7 @@ fn cold_solve_hp(c: &mut Criterion) {
             &s,
             |b, s| {
                 b.iter(|| {
-                    let sol = black_box(s).solve(&mut Silent);
+                    let sol = black_box(s).solve(&mut Silent).expect("a planar scenario");
                     assert_eq!(sol.status, bellyflop::Status::Solved, "N = {n}, M = {m}");
                     sol
                 })

@@ -59,9 +59,13 @@ fn direct_rows() {
         // accuracy check included), without the polish, which is counted
         // apart below.
         s.solver.polish = false;
-        let (sol, a, b) = count(|| bellyflop::solve(&s.scenario, &s.solver, &mut Silent));
+        let (sol, a, b) = count(|| {
+            bellyflop::solve(&s.scenario, &s.solver, &mut Silent).expect("a planar scenario")
+        });
         s.solver.polish = true;
-        let (polished, pa, pb) = count(|| bellyflop::solve(&s.scenario, &s.solver, &mut Silent));
+        let (polished, pa, pb) = count(|| {
+            bellyflop::solve(&s.scenario, &s.solver, &mut Silent).expect("a planar scenario")
+        });
         assert!(polished.controls_flown.is_some(), "{}", polished.message);
         let nlp = Nlp::new(&s.scenario, &s.solver);
         let d = &s.scenario.discretization;

@@ -33,7 +33,9 @@ fn main() {
     for chain in chains {
         for _ in 0..3 {
             let t0 = Instant::now();
-            let mut sol = paper(chain[0]).solve(&mut Silent);
+            let mut sol = paper(chain[0])
+                .solve(&mut Silent)
+                .expect("a planar scenario");
             let mut its = vec![sol.iterations];
             for &n in &chain[1..] {
                 if sol.status != Status::Solved {
@@ -51,7 +53,9 @@ fn main() {
             }
             let ms = t0.elapsed().as_secs_f64() * 1e3;
             let t1 = Instant::now();
-            let direct = paper(*chain.last().unwrap()).solve(&mut Silent);
+            let direct = paper(*chain.last().unwrap())
+                .solve(&mut Silent)
+                .expect("a planar scenario");
             let direct_ms = t1.elapsed().as_secs_f64() * 1e3;
             println!(
                 "{chain:?}: its {its:?} {} {ms:.1} ms m_f {:.2} kg | direct: {} its {direct_ms:.1} ms m_f {:.2} kg | ratio {:.2}",

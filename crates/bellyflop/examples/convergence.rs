@@ -5,7 +5,7 @@ use bellyflop::method::observer::Silent;
 use bellyflop::{Case, Formulation};
 
 fn report(label: &str, s: &Case) {
-    let sol = s.solve(&mut Silent);
+    let sol = s.solve(&mut Silent).expect("a planar scenario");
     println!(
         "{label:<44} {:<13} it {:>3}  t_f {:>8.4} s  m_f {:>9.1} kg  defect {:>7.1e}  gap {:>7.1e}  {:>6.0} ms",
         sol.status.as_str(),

@@ -18,7 +18,7 @@ fn main() {
     let mut ms = Vec::with_capacity(runs);
     let mut last = None;
     for _ in 0..runs {
-        let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
+        let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent).expect("a planar scenario");
         ms.push(sol.solve_time_ms);
         last = Some(sol);
     }

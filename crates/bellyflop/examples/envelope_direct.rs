@@ -85,7 +85,7 @@ fn main() {
         let i = &mut s.scenario.initial;
         [i.x_m, i.z_m, i.vx_mps, i.vz_mps, i.theta_deg, i.mass_kg] = r.state;
         s.scenario.discretization.final_mass_guess_kg = r.state[5] - 5000.0;
-        let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
+        let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent).expect("a planar scenario");
         let ok = matches!(sol.status, Status::Solved | Status::Inaccurate);
         converged += usize::from(ok);
         ms += sol.solve_time_ms;

@@ -50,7 +50,7 @@ fn main() {
         if paper {
             s.solver.formulation = bellyflop::Formulation::Paper;
         }
-        let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
+        let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent).expect("a planar scenario");
         for interpolation in [Interpolation::Linear, Interpolation::Pchip] {
             for nozzle in [NozzleModel::Angle, NozzleModel::Rate] {
                 let opts = Options {

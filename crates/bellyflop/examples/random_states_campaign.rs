@@ -42,7 +42,8 @@ fn main() {
         for method in [Method::Direct, Method::Scvx] {
             let s = scenario(x, method, nodes);
             let result = std::panic::catch_unwind(|| {
-                let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
+                let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent)
+                    .expect("a planar scenario");
                 check(&s, &sol).map(|()| sol.status)
             });
             match result {

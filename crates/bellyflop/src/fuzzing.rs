@@ -105,7 +105,10 @@ pub fn exercise_with(bytes: &[u8], budget: Budget) -> Outcome {
     let mut answers = Vec::with_capacity(2);
     for method in [Method::Direct, Method::Scvx] {
         s.solver.method = method;
-        let sol = s.solve(&mut crate::method::observer::Silent);
+        let sol = match s.solve(&mut crate::method::observer::Silent) {
+            Ok(sol) => sol,
+            Err(e) => return rejected(e),
+        };
         check_answer(&s.scenario, method, &sol);
         answers.push((method, sol.status));
     }

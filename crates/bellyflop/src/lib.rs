@@ -19,7 +19,9 @@
 //! - [`polish`]: the controls as flown (bounds and cubics per arc, [`flown`])
 //!   made to land and to be fuel-optimal by single shooting;
 //! - [`refine`]: hp mesh refinement to a tolerance, with breaks at the switches;
-//! - [`pipeline`]: [`solve`], the whole of it, with statuses that are claims;
+//! - [`pipeline`]: [`solve`], the whole of it, with statuses that are claims
+//!   (planar: a 6-DoF scenario is refused with a typed error, and solved by
+//!   [`pipeline::six_dof::solve`]);
 //! - [`guidance`]: the closed loop: navigation, re-planning, control;
 //! - [`sim`]: the truth plant, dispersions and the touchdown verdict;
 //! - [`output`]: the JSON of a solve and the records of a Monte Carlo campaign;

@@ -636,7 +636,8 @@ mod tests {
         let mut sv = case.solver.clone();
         sv.refinement.tolerance = 1e-6;
         sv.refinement.max_passes = 3;
-        let sol = crate::solve(&case.scenario, &sv, &mut crate::method::observer::Silent);
+        let sol = crate::solve(&case.scenario, &sv, &mut crate::method::observer::Silent)
+            .expect("a planar scenario");
         assert_eq!(sol.status, Status::Solved, "{}", sol.message);
         let r = sol.refinement.as_ref().expect("refined");
         assert_eq!(r.passes.len(), 3);

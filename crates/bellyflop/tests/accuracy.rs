@@ -11,7 +11,7 @@ fn paper(method: Method, edit: impl FnOnce(&mut Case)) -> (Case, Solution) {
     s.solver.method = method;
     edit(&mut s);
     s.validate().expect("test scenario is valid");
-    let sol = s.solve(&mut Silent);
+    let sol = s.solve(&mut Silent).expect("a planar scenario");
     (s, sol)
 }
 

@@ -10,7 +10,7 @@ use bellyflop::problem::constraints::{self, Limit};
 use bellyflop::{SolverSettings, Status};
 
 fn solve(s: &Scenario) -> bellyflop::Solution {
-    bellyflop::solve(s, &SolverSettings::default(), &mut Silent)
+    bellyflop::solve(s, &SolverSettings::default(), &mut Silent).expect("a planar scenario")
 }
 
 fn with(constraints: Constraints) -> Scenario {
@@ -195,7 +195,7 @@ fn a_limit_that_leaves_no_trajectory_is_named_with_where_it_cuts() {
         polish: false,
         ..SolverSettings::default()
     };
-    let free = bellyflop::solve(&Scenario::paper(), &raw, &mut Silent);
+    let free = bellyflop::solve(&Scenario::paper(), &raw, &mut Silent).expect("a planar scenario");
     let mass = e.unconstrained_final_mass_kg.unwrap();
     assert!(
         (mass - free.final_mass_kg).abs() < 1e-6,
@@ -270,7 +270,8 @@ fn the_planner_adopts_only_answers_within_every_limit_at_the_nodes() {
             .map(|y| (y[ix::X] - xf).abs().atan2(y[ix::Z] - zf).to_degrees())
             .fold(0.0, f64::max)
     };
-    let free = bellyflop::solve(&Scenario::paper(), &direct, &mut Silent);
+    let free =
+        bellyflop::solve(&Scenario::paper(), &direct, &mut Silent).expect("a planar scenario");
     assert!(
         widest(&free) > gamma_deg + 1.0,
         "the cone binds: {}",
@@ -291,7 +292,8 @@ fn the_planner_adopts_only_answers_within_every_limit_at_the_nodes() {
         max_pitch_rate_degps: Some(limit_degps),
         ..Default::default()
     });
-    let free = bellyflop::solve(&Scenario::paper(), &direct, &mut Silent);
+    let free =
+        bellyflop::solve(&Scenario::paper(), &direct, &mut Silent).expect("a planar scenario");
     let free_peak = free
         .trajectory
         .x

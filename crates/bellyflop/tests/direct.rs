@@ -22,7 +22,7 @@ fn direct_paper(edit: impl FnOnce(&mut Case)) -> Solution {
     s.solver.landing_velocity_tolerance_mps = 2.0;
     edit(&mut s);
     s.validate().expect("test scenario is valid");
-    s.solve(&mut Silent)
+    s.solve(&mut Silent).expect("a planar scenario")
 }
 
 /// The method alone (no certificate, no accuracy check): these tests compare

@@ -52,7 +52,8 @@ fn every_label_holds() {
                     "{}: a feasible state is certified infeasible ({bound:?})",
                     e.name
                 );
-                let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
+                let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent)
+                    .expect("a planar scenario");
                 assert_ne!(sol.status, Status::Infeasible, "{}", e.name);
                 assert_eq!(
                     sol.status,
@@ -76,7 +77,8 @@ fn every_label_holds() {
                         e.name,
                         feasibility::stopping_bound(&s.scenario)
                     );
-                    let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
+                    let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent)
+                        .expect("a planar scenario");
                     assert_eq!(sol.status, Status::Infeasible, "{}", e.name);
                     assert_eq!(sol.iterations, 0, "{}: solved although certified", e.name);
                     assert_eq!(sol.method, method);

@@ -14,7 +14,7 @@ fn propagate_paper_case(form: Formulation, interpolation: Interpolation) -> Prop
     let mut s = Case::paper();
     s.scenario.discretization.nodes = 20;
     s.solver.formulation = form;
-    let sol = s.solve(&mut Silent);
+    let sol = s.solve(&mut Silent).expect("a planar scenario");
     assert_eq!(sol.status, Status::Solved, "{form:?}: {}", sol.message);
     let opts = Options {
         interpolation,

@@ -179,7 +179,7 @@ fn claim_paper(edit: impl FnOnce(&mut Case)) -> Solution {
     s.solver.method = bellyflop::Method::Scvx;
     edit(&mut s);
     s.validate().expect("test scenario is valid");
-    bellyflop::solve(&s.scenario, &s.solver, &mut Silent)
+    bellyflop::solve(&s.scenario, &s.solver, &mut Silent).expect("a planar scenario")
 }
 
 #[test]

@@ -40,7 +40,8 @@ fn lowest_before_touchdown(scenario: &Scenario, sol: &bellyflop::Solution) -> f6
 #[test]
 fn the_ground_skimmer_is_solved_above_the_ground_and_within_its_bounds() {
     let scenario = ground_skimmer();
-    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent)
+        .expect("a planar scenario");
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
     let report = sol
         .path
@@ -67,7 +68,8 @@ fn the_ground_skimmer_is_solved_above_the_ground_and_within_its_bounds() {
 #[test]
 fn a_bound_broken_between_grid_points_demotes_a_solved_answer() {
     let scenario = Scenario::paper();
-    let mut sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    let mut sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent)
+        .expect("a planar scenario");
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
     let model = Model::new(&scenario.vehicle, &scenario.environment);
     let flown = sol.controls_flown.as_mut().unwrap();
@@ -93,7 +95,8 @@ fn a_bound_broken_between_grid_points_demotes_a_solved_answer() {
 #[test]
 fn the_paper_case_reports_its_path() {
     let scenario = Scenario::paper();
-    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent)
+        .expect("a planar scenario");
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
     let r = sol.path.unwrap();
     // The paper's answer stays well above the ground until its last second.
@@ -107,7 +110,8 @@ fn the_paper_case_reports_its_path() {
 #[test]
 fn the_checks_of_a_polished_answer_are_its_own() {
     let scenario = ground_skimmer();
-    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent)
+        .expect("a planar scenario");
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
     let c = sol.checks;
     let lowest = sol
@@ -134,7 +138,8 @@ fn the_checks_of_a_polished_answer_are_its_own() {
 #[test]
 fn a_polished_answer_reports_its_iterations() {
     let scenario = ground_skimmer();
-    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent)
+        .expect("a planar scenario");
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
     let report = sol
         .polish
@@ -177,7 +182,8 @@ fn a_polished_answer_reports_its_iterations() {
             ..SolverSettings::default()
         },
         &mut Silent,
-    );
+    )
+    .expect("a planar scenario");
     assert!(raw.polish.is_none());
 }
 
@@ -193,7 +199,8 @@ fn a_contradicted_structure_is_repaired_and_gains_mass() {
     let i = &mut scenario.initial;
     (i.x_m, i.z_m, i.vx_mps, i.vz_mps) = (96.442, 586.164, -13.759, -72.651);
     (i.theta_deg, i.mass_kg) = (94.167, 112_375.623);
-    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent)
+        .expect("a planar scenario");
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
     let report = sol.polish.as_ref().expect("polished");
     let first = &report.structures[0];
@@ -230,7 +237,8 @@ fn safety_state(state: [f64; 6]) -> Scenario {
 #[test]
 fn a_polish_that_fails_from_fine_segments_tries_coarser_ones() {
     let scenario = safety_state([-233.992, 454.346, -19.870, -75.502, 90.384, 111_715.686]);
-    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent)
+        .expect("a planar scenario");
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
     let report = sol.polish.as_ref().expect("a polished answer");
     let first = &report.structures[0];
@@ -255,7 +263,8 @@ fn a_polish_that_fails_from_fine_segments_tries_coarser_ones() {
 #[test]
 fn the_certificate_does_not_hold_where_the_polish_did_not_converge() {
     let scenario = safety_state([-52.571, 528.090, -14.159, -82.787, 90.301, 113_850.449]);
-    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent)
+        .expect("a planar scenario");
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
     let o = sol
         .optimality
@@ -269,7 +278,8 @@ fn the_certificate_does_not_hold_where_the_polish_did_not_converge() {
     );
     assert!(o.evaluated && o.contradicted_arcs == 0, "{o:?}");
     assert!(!o.converged && !o.holds, "{o:?}");
-    let paper = bellyflop::solve(&Scenario::paper(), &SolverSettings::default(), &mut Silent);
+    let paper = bellyflop::solve(&Scenario::paper(), &SolverSettings::default(), &mut Silent)
+        .expect("a planar scenario");
     let o = paper.optimality.as_ref().unwrap();
     assert!(o.converged && o.holds, "{o:?}");
 }

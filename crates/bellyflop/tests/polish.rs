@@ -16,7 +16,7 @@ fn solve(method: Method, polish: bool) -> bellyflop::Solution {
         polish,
         ..SolverSettings::default()
     };
-    bellyflop::solve(&Scenario::paper(), &settings, &mut Silent)
+    bellyflop::solve(&Scenario::paper(), &settings, &mut Silent).expect("a planar scenario")
 }
 
 /// Classical RK4 at a fixed 1 ms step, piece by piece: not the landing
@@ -140,7 +140,8 @@ fn the_newton_mode_lands_and_ends_at_least_as_heavy_in_fewer_iterations() {
         polish_hessian: true,
         ..SolverSettings::default()
     };
-    let newton = bellyflop::solve(&Scenario::paper(), &settings, &mut Silent);
+    let newton =
+        bellyflop::solve(&Scenario::paper(), &settings, &mut Silent).expect("a planar scenario");
     assert_eq!(newton.status, Status::Solved, "{}", newton.message);
     let flown = newton.controls_flown.as_ref().unwrap();
     let end = rk4_landing(&Scenario::paper(), flown);
@@ -176,7 +177,8 @@ fn a_start_with_the_gimbal_at_its_bound_is_polished_on_its_own_mesh() {
     let i = &mut scenario.initial;
     (i.x_m, i.z_m, i.vx_mps, i.vz_mps, i.mass_kg) = (100.0, 600.0, 0.0, -85.0, 120_000.0);
     i.gimbal_deg = scenario.vehicle.max_gimbal_deg;
-    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent);
+    let sol = bellyflop::solve(&scenario, &SolverSettings::default(), &mut Silent)
+        .expect("a planar scenario");
     assert_eq!(sol.status, Status::Solved, "{}", sol.message);
     assert_eq!(sol.nodes, 20, "solved by the retry on a finer mesh");
     let flown = sol.controls_flown.as_ref().expect("flown controls");

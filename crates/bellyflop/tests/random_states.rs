@@ -35,7 +35,8 @@ fn random_states_get_truthful_statuses() {
             for method in [Method::Direct, Method::Scvx] {
                 let s = scenario([x, z, vx, vz, th, m], method, 10);
                 prop_assert!(s.validate().is_ok());
-                let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent);
+                let sol = bellyflop::solve(&s.scenario, &s.solver, &mut Silent)
+                    .expect("a planar scenario");
                 let checked = check(&s, &sol);
                 prop_assert!(checked.is_ok(), "{}", checked.unwrap_err());
             }

@@ -818,10 +818,28 @@ fn a_six_dof_scenario_is_refused_by_the_planar_consumers() {
     let msg = e.to_string();
     assert!(
         msg.starts_with("model = \"6dof\" is not yet available in the test")
-            && msg.contains("method::direct::six_dof::solve_cold"),
+            && msg.contains("bellyflop::pipeline::six_dof::solve"),
         "{msg}"
     );
     assert!(Case::paper().scenario.require_planar("the test").is_ok());
+    // The planar pipeline refuses it before any work, by either entry point
+    // (it used to solve it as planar, dropping its out-of-plane fields).
+    let mut silent = bellyflop::method::observer::Silent;
+    let refusals = [
+        bellyflop::solve(&case.scenario, &case.solver, &mut silent).unwrap_err(),
+        case.solve(&mut silent).unwrap_err(),
+    ];
+    for e in refusals {
+        assert!(
+            matches!(
+                &e,
+                InputError::ModelUnavailable { model, operation }
+                    if *model == bellyflop::input::scenario::ModelKind::SixDof
+                        && operation.contains("bellyflop::pipeline::solve")
+            ),
+            "{e:?}"
+        );
+    }
     // The closed loop refuses it too (its planner flies the planar model).
     let config = bellyflop::guidance::SimConfig::default();
     let e = config.fly(&case, 1, 0, false).unwrap_err();

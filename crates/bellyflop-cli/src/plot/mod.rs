@@ -14,11 +14,13 @@
 //! with plotters' `ab_glyph` font backend, so no system font is needed.
 //!
 //! The plots of closed-loop runs (`sim --out`, `montecarlo --out`) are in
-//! [`closed_loop`].
+//! [`closed_loop`]; those of a 6-DoF solve (`path` and `histories` in 3-D)
+//! in [`six_dof`].
 //!
 //! The files, in dependency order: `common` (font, colours, labels, ranges),
 //! `data` (what is drawn), `pose` (the path's geometry), `legend`, `path`,
-//! `histories`, `convergence`, `render` (the files); `closed_loop`.
+//! `histories`, `convergence`, `render` (the files); `closed_loop`;
+//! `six_dof`.
 
 mod closed_loop;
 mod common;
@@ -29,6 +31,7 @@ mod legend;
 mod path;
 mod pose;
 mod render;
+pub mod six_dof;
 
 pub use closed_loop::{campaign, timeline};
 pub use data::PlotData;

@@ -19,35 +19,41 @@ pub const PLOTS: [(&str, (u32, u32)); 3] = [
     ("convergence", (1300, 950)),
 ];
 
+/// Draw `$draw(&root, $data)` as `$dir/$stem.svg` and `$dir/$stem.png` of
+/// `$size` pixels, each written whole or not at all
+/// ([`commit`]), and push both paths onto `$written` (the 6-DoF plots
+/// use it too).
+macro_rules! svg_and_png {
+    ($dir:expr, $written:expr, $stem:expr, $size:expr, $draw:ident, $data:expr) => {{
+        let svg = $dir.join(format!("{}.svg", $stem));
+        commit(&svg, |tmp| {
+            let root = SVGBackend::new(tmp, $size).into_drawing_area();
+            $draw(&root, $data)
+                .and_then(|()| root.present())
+                .map_err(|e| OutputError::plot(&svg, e))
+        })?;
+        $written.push(svg);
+        let png = $dir.join(format!("{}.png", $stem));
+        commit(&png, |tmp| {
+            let root = BitMapBackend::new(tmp, $size).into_drawing_area();
+            $draw(&root, $data)
+                .and_then(|()| root.present())
+                .map_err(|e| OutputError::plot(&png, e))
+        })?;
+        $written.push(png);
+    }};
+}
+pub(super) use svg_and_png;
+
 /// Draw every plot as `DIR/NAME.svg` and `DIR/NAME.png`; return the paths.
 pub fn render_all(dir: &Path, d: &PlotData) -> Result<Vec<PathBuf>, OutputError> {
     fonts();
     let mut written = Vec::new();
-    macro_rules! both {
-        ($stem:expr, $size:expr, $draw:ident) => {{
-            let svg = dir.join(format!("{}.svg", $stem));
-            commit(&svg, |tmp| {
-                let root = SVGBackend::new(tmp, $size).into_drawing_area();
-                $draw(&root, d)
-                    .and_then(|()| root.present())
-                    .map_err(|e| OutputError::plot(&svg, e))
-            })?;
-            written.push(svg);
-            let png = dir.join(format!("{}.png", $stem));
-            commit(&png, |tmp| {
-                let root = BitMapBackend::new(tmp, $size).into_drawing_area();
-                $draw(&root, d)
-                    .and_then(|()| root.present())
-                    .map_err(|e| OutputError::plot(&png, e))
-            })?;
-            written.push(png);
-        }};
-    }
     for (stem, size) in PLOTS {
         match stem {
-            "path" => both!(stem, size, draw_path),
-            "histories" => both!(stem, size, draw_histories),
-            _ => both!(stem, size, draw_convergence),
+            "path" => svg_and_png!(dir, written, stem, size, draw_path, d),
+            "histories" => svg_and_png!(dir, written, stem, size, draw_histories, d),
+            _ => svg_and_png!(dir, written, stem, size, draw_convergence, d),
         }
     }
     Ok(written)

@@ -9,7 +9,9 @@ runs.csv that ``bellyflop montecarlo --out`` writes.
 - :class:`Scenario`: a landing problem (``Scenario.paper()``,
   ``Scenario.from_toml(path)``, ``Scenario.from_toml_text(text)``,
   ``Scenario.from_dict(d)``);
-- :func:`solve` -> :class:`Solution`;
+- :func:`solve` -> :class:`Solution` (a planar scenario) or
+  :class:`SixDofSolution` (a 6-DoF one, ``model = "6dof"``: the states and
+  controls as numpy arrays named by the model's fields);
 - :func:`sim` -> :class:`Flight` (one closed-loop landing with dispersions);
 - :func:`montecarlo` -> :class:`Campaign` (many landings, on any
   ``concurrent.futures.Executor``).
@@ -40,6 +42,7 @@ from ._bellyflop import (
     Scenario,
     Section,
     SimConfig,
+    SixDofSolution,
     Solution,
 )
 
@@ -47,6 +50,7 @@ __all__ = [
     "Scenario",
     "SimConfig",
     "Solution",
+    "SixDofSolution",
     "Flight",
     "Campaign",
     "CampaignTable",
@@ -130,10 +134,10 @@ def solve(
     intervals: Optional[int] = None,
     method: Optional[str] = None,
     formulation: Optional[str] = None,
-    interpolation: str = "pchip",
+    interpolation: Optional[str] = None,
     mesh_tolerance: Optional[float] = None,
     fast: bool = False,
-) -> Solution:
+) -> Union[Solution, SixDofSolution]:
     """Solve one landing problem, as ``bellyflop solve --json`` does.
 
     ``scenario`` is the paper's case when omitted (or a Scenario, a dict, the
@@ -141,13 +145,26 @@ def solve(
     ``nodes`` (N), ``intervals`` (M), ``method``
     (``"direct"`` or ``"scvx"``) and ``formulation`` (``"exact"``,
     ``"paper"``, ``"vector"``) override the scenario; ``interpolation``
-    (``"pchip"`` or ``"linear"``) rebuilds the controls for the landing error.
+    (``"pchip"``, the default, or ``"linear"``) rebuilds the controls for the
+    landing error.
     ``mesh_tolerance`` refines the mesh until every interval's relative error
     is within it (``--mesh-tolerance``; the passes are in
     ``to_dict()["refinement"]``). By default a solved answer is polished
     into controls that fly (``to_dict()["controls_flown"]``, the README's
     "The flown controls"); ``fast=True`` returns the raw collocation answer
     (``--fast``).
+
+    A 6-DoF scenario (``model = "6dof"``, ``bellyflop init --model 6dof``)
+    is solved by the 6-DoF pipeline, as ``bellyflop solve`` solves it, into
+    a :class:`SixDofSolution`: ``status``, ``message``, ``tf_s``,
+    ``final_mass_kg``, ``fuel_kg``, ``iterations``, ``controls_flown`` and
+    ``flown`` (the check of the controls as flown; None when the solve did
+    not converge), ``to_dict()`` (the ``--json`` object), the node times
+    ``t_s`` and the tables ``states`` and ``controls`` as dicts of numpy
+    arrays named by the model's fields (the columns of trajectory.csv).
+    Only ``nodes``, ``intervals`` and ``fast`` apply to it: a ``method``
+    other than ``"direct"``, a ``formulation``, an ``interpolation`` or a
+    ``mesh_tolerance`` other than 0 raises :class:`InputError` naming it.
 
     The GIL is released while the core solves. Raises :class:`InputError`
     on bad input (integers out of range included); any other outcome is

@@ -109,6 +109,36 @@ class Solution:
     def to_json(self) -> str: ...
     def __getattr__(self, name: str) -> Any: ...
 
+class SixDofSolution:
+    """The object ``bellyflop solve --json`` prints on a 6-DoF scenario;
+    keys as attributes, each state and control field too (``z_m``,
+    ``thrust_n``)."""
+    model: str
+    status: str
+    message: str
+    tf_s: float
+    final_mass_kg: float
+    fuel_kg: float
+    iterations: int
+    polish_iterations: Optional[int]
+    solve_time_ms: float
+    nodes: int
+    t_s: FloatArray
+    controls_flown: Optional[Dict[str, Any]]
+    flown: Optional[Dict[str, Any]]
+    _core_ms: float
+    @property
+    def states(self) -> Dict[str, FloatArray]:
+        """The node states by name, N + 1 each, at ``t_s``."""
+    @property
+    def controls(self) -> Dict[str, FloatArray]:
+        """The controls by name, N each, at ``t_s[:-1]``."""
+    @property
+    def units(self) -> Dict[str, str]: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+    def to_json(self) -> str: ...
+    def __getattr__(self, name: str) -> Any: ...
+
 class Flight:
     """The object ``bellyflop sim --json`` prints, with the flown trace."""
     seed: int
@@ -144,10 +174,10 @@ def solve(
     intervals: Optional[int] = ...,
     method: Optional[str] = ...,
     formulation: Optional[str] = ...,
-    interpolation: str = ...,
+    interpolation: Optional[str] = ...,
     mesh_tolerance: Optional[float] = ...,
     fast: bool = ...,
-) -> Solution: ...
+) -> Union[Solution, SixDofSolution]: ...
 def sim(scenario: Scenario, config: SimConfig, seed: int = ..., run: int = ...) -> Flight: ...
 def campaign_chunk(
     scenario: Scenario, config: SimConfig, seed: int, start: int, stop: int, threads: int = ...

@@ -147,7 +147,9 @@ mod tests {
         let mut case = crate::Case::paper();
         case.solver.method = crate::Method::Direct;
         case.solver.polish = false;
-        let sol = case.solve(&mut crate::method::observer::Silent);
+        let sol = case
+            .solve(&mut crate::method::observer::Silent)
+            .expect("a planar scenario");
         // The raw answer (flown, it misses: `inaccurate`).
         assert!(matches!(
             sol.status,

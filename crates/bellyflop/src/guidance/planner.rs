@@ -370,7 +370,8 @@ mod tests {
             polish: false,
             ..SolverSettings::default()
         };
-        let mut sol = crate::solve(&Scenario::paper(), &direct, &mut Silent);
+        let mut sol =
+            crate::solve(&Scenario::paper(), &direct, &mut Silent).expect("a planar scenario");
         sol.status = Status::Solved;
         let mut coned = Scenario::paper();
         hold_limits_at_nodes(&coned, &mut sol);

@@ -70,9 +70,10 @@ pub enum InputError {
         reason: String,
     },
     /// A valid scenario of a model that `operation` cannot take yet: a
-    /// 6-DoF one (`model = "6dof"`) given to the planar solve, the closed
+    /// 6-DoF one (`model = "6dof"`) given to the planar solve
+    /// ([`crate::pipeline::solve`], [`crate::Case::solve`]), the closed
     /// loop or a binding, refused rather than solved as planar.
-    #[error("model = \"{model}\" is not yet available in {operation}: it solves and flies only the planar model (model = \"planar\"); the 6-DoF direct solve is the library's bellyflop::method::direct::six_dof::solve_cold, from problem::six_dof::start_state of the scenario")]
+    #[error("model = \"{model}\" is not yet available in {operation}: it solves and flies only the planar model (model = \"planar\"); the 6-DoF scenario is solved by the library's bellyflop::pipeline::six_dof::solve, from problem::six_dof::start_state of the scenario (`bellyflop solve` on the CLI)")]
     ModelUnavailable { model: ModelKind, operation: String },
 }
 

@@ -3,6 +3,7 @@
 //! check of the answer against the nonlinear model. Statuses are claims
 //! (see [`solve`]).
 
+use crate::input::error::InputError;
 use crate::input::scenario::{Case, Scenario};
 use crate::input::settings::{Method, SolverSettings};
 use crate::method::observer::Observer;
@@ -61,11 +62,21 @@ pub mod six_dof;
 /// polish's; the re-integration of the landing check is not counted. The methods on their own
 /// ([`method::Solver`], as the closed loop's re-plans call them) skip all
 /// three steps.
+///
+/// # Errors
+///
+/// This is the planar pipeline: a 6-DoF scenario (`model = "6dof"`) is
+/// refused with [`InputError::ModelUnavailable`] ([`Scenario::require_planar`]),
+/// before any work, rather than solved as planar (which would drop its
+/// out-of-plane fields and answer another problem). Solve it with
+/// [`six_dof::solve`], from [`crate::problem::six_dof::start_state`] of
+/// its initial state. A planar scenario is never refused.
 pub fn solve(
     scenario: &Scenario,
     settings: &SolverSettings,
     observer: &mut dyn Observer,
-) -> Solution {
+) -> Result<Solution, InputError> {
+    scenario.require_planar("bellyflop::pipeline::solve (the planar pipeline)")?;
     let mut sol = with_fallback(scenario, settings, observer);
     if evidence::wanted(scenario, &sol) {
         let (found, ms) = evidence::gather(scenario, settings);
@@ -77,7 +88,7 @@ pub fn solve(
         sol.solve_time_ms += ms;
         sol.limit_evidence = Some(found);
     }
-    sol
+    Ok(sol)
 }
 
 /// A `not_converged` answer with limits that [`feasibility::certify_limits`]
@@ -324,7 +335,11 @@ fn polish_answer(scenario: &Scenario, settings: &SolverSettings, sol: &mut Solut
 impl Case {
     /// Solve with [`solve`] (the pipeline adds this to the input type, which
     /// does not depend on the pipeline).
-    pub fn solve(&self, observer: &mut dyn Observer) -> Solution {
+    ///
+    /// # Errors
+    ///
+    /// [`InputError::ModelUnavailable`] for a 6-DoF case, as [`solve`].
+    pub fn solve(&self, observer: &mut dyn Observer) -> Result<Solution, InputError> {
         solve(&self.scenario, &self.solver, observer)
     }
 }

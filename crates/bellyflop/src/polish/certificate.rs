@@ -135,7 +135,8 @@ mod tests {
     /// minimum principle wants inside every bound arc.
     #[test]
     fn the_published_samples_keep_the_sign_rule() {
-        let sol = crate::solve(&Scenario::paper(), &SolverSettings::default(), &mut Silent);
+        let sol = crate::solve(&Scenario::paper(), &SolverSettings::default(), &mut Silent)
+            .expect("a planar scenario");
         let o = sol.optimality.expect("the paper's case is polished");
         let sw = o
             .switching

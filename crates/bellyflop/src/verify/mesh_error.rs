@@ -223,7 +223,8 @@ mod tests {
             &s,
             &Default::default(),
             &mut crate::method::observer::Silent,
-        );
+        )
+        .expect("a planar scenario");
         assert_eq!((sol.nodes, sol.intervals), (n, intervals));
         sol.tf_s = tf;
         sol.t_s = t_nodes.clone();
@@ -423,7 +424,8 @@ mod tests {
             &s,
             &Default::default(),
             &mut crate::method::observer::Silent,
-        );
+        )
+        .expect("a planar scenario");
         sol.z_m.pop();
         assert!(matches!(
             estimate(&s, &sol),

@@ -466,7 +466,8 @@ mod tests {
     fn the_bounds_hold_along_flown_answers() {
         for x0 in [100.0, -100.0] {
             let s = paper_at(x0, None);
-            let sol = crate::solve(&s, &SolverSettings::default(), &mut Silent);
+            let sol = crate::solve(&s, &SolverSettings::default(), &mut Silent)
+                .expect("a planar scenario");
             assert_eq!(sol.status, crate::Status::Solved, "{}", sol.message);
             let set = Setting::new(&s);
             let span = landing_s(&s);
