@@ -162,12 +162,11 @@ impl Controls6 {
     }
 }
 
-/// A polished answer: its controls, the shot's end, the iterations and
-/// whether they converged.
+/// A polished answer: its controls, the iterations and whether they
+/// converged (the caller flies the controls itself).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Polished6 {
     pub controls: Controls6,
-    pub end: [f64; NX],
     pub iterations: usize,
     pub converged: bool,
     /// Why it stopped, when it did not converge.
@@ -282,28 +281,31 @@ fn control_partials(
 }
 
 /// (dx/ds, dS/ds) at (x, S) on interval k at fraction a: dx/ds = t_f·f,
-/// dS/ds = t_f·(f_x·S + f_u·∂u/∂p) + f ⊗ e_tf.
+/// dS/ds = t_f·(f_x·S + f_u·∂u/∂p) + f ⊗ e_tf. S and dS/ds are NX rows of
+/// P, row-major; dS/ds is written into `ds`.
+#[allow(clippy::too_many_arguments)] // The stage, its place and its output.
 fn derivative(
     setup: &Setup,
     c: &Controls6,
     k: usize,
     a: f64,
     x: &[f64; NX],
-    s: &[Vec<f64>],
+    s: &[f64],
     partials: &mut Vec<(usize, usize, f64)>,
-) -> ([f64; NX], Vec<Vec<f64>>) {
+    ds: &mut [f64],
+) -> [f64; NX] {
     let u = c.at_fraction(k, a);
     let (f, jac) = six::jacobian(setup.model, x, &u);
     control_partials(setup, c, k, a, partials);
     let np = setup.par.len();
     let tf = c.tf_s;
-    let mut ds = vec![vec![0.0; np]; NX];
+    ds.fill(0.0);
     for r in 0..NX {
-        let row = &mut ds[r];
+        let row = &mut ds[r * np..(r + 1) * np];
         for m in 0..NX {
             let j = jac[r][m];
             if j != 0.0 {
-                for (o, v) in row.iter_mut().zip(&s[m]) {
+                for (o, v) in row.iter_mut().zip(&s[m * np..(m + 1) * np]) {
                     *o += j * v;
                 }
             }
@@ -316,17 +318,17 @@ fn derivative(
         }
         row[setup.par.tf()] += f[r];
     }
-    (std::array::from_fn(|r| tf * f[r]), ds)
+    std::array::from_fn(|r| tf * f[r])
 }
 
 /// One RK4 stage of a shot, as [`shoot_visiting`] shows it: node interval
 /// k, the fraction a of it, the stage's state Y and its sensitivities
-/// ∂Y/∂p (NX rows of P).
+/// ∂Y/∂p (NX rows of P, row-major).
 struct Stage<'a> {
     k: usize,
     a: f64,
     y: &'a [f64; NX],
-    dy: &'a [Vec<f64>],
+    dy: &'a [f64],
 }
 
 /// The shot of the controls `p` (module docs).
@@ -335,22 +337,25 @@ fn shoot(setup: &Setup, p: &[f64]) -> Shot {
 }
 
 /// [`shoot`], showing `visit` every RK4 stage in order (four per step, the
-/// steps in time).
+/// steps in time). The sensitivities live in flat buffers allocated once
+/// per shot.
 fn shoot_visiting(setup: &Setup, p: &[f64], visit: &mut dyn FnMut(&Stage)) -> Shot {
     let c = setup.controls(p);
     let np = setup.par.len();
     let mut x = setup.x0;
-    let mut s = vec![vec![0.0; np]; NX];
+    let mut s = vec![0.0; NX * np];
     let mut partials = Vec::with_capacity(8);
     let (mut z, mut d_z) = (Vec::new(), Vec::new());
+    // The stages' dS/ds, and a stage's S.
+    let mut ks: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; NX * np]);
+    let mut sy = vec![0.0; NX * np];
     let axpy = |x: &[f64; NX], k: &[f64; NX], h: f64| -> [f64; NX] {
         std::array::from_fn(|i| x[i] + h * k[i])
     };
-    let saxpy = |s: &[Vec<f64>], k: &[Vec<f64>], h: f64| -> Vec<Vec<f64>> {
-        s.iter()
-            .zip(k)
-            .map(|(a, b)| a.iter().zip(b).map(|(a, b)| a + h * b).collect())
-            .collect()
+    let saxpy = |out: &mut [f64], s: &[f64], k: &[f64], h: f64| {
+        for ((o, a), b) in out.iter_mut().zip(s).zip(k) {
+            *o = a + h * b;
+        }
     };
     for k in 0..setup.par.n {
         let ds = 0.5 * (setup.tau[k + 1] - setup.tau[k]);
@@ -359,33 +364,36 @@ fn shoot_visiting(setup: &Setup, p: &[f64], visit: &mut dyn FnMut(&Stage)) -> Sh
         for i in 0..m {
             if k > 0 || i > 0 {
                 z.push(x[sx::Z]);
-                d_z.push(s[sx::Z].clone());
+                d_z.push(s[sx::Z * np..(sx::Z + 1) * np].to_vec());
             }
             let a0 = i as f64 / m as f64;
             let (a1, a2) = (a0 + 0.5 / m as f64, a0 + 1.0 / m as f64);
-            let mut stage = |a: f64, y: &[f64; NX], dy: &[Vec<f64>]| {
+            let [k1s, k2s, k3s, k4s] = &mut ks;
+            let mut stage = |a: f64, y: &[f64; NX], dy: &[f64], out: &mut [f64]| {
                 visit(&Stage { k, a, y, dy });
-                derivative(setup, &c, k, a, y, dy, &mut partials)
+                derivative(setup, &c, k, a, y, dy, &mut partials, out)
             };
-            let (k1x, k1s) = stage(a0, &x, &s);
-            let (y2, s2) = (axpy(&x, &k1x, 0.5 * h), saxpy(&s, &k1s, 0.5 * h));
-            let (k2x, k2s) = stage(a1, &y2, &s2);
-            let (y3, s3) = (axpy(&x, &k2x, 0.5 * h), saxpy(&s, &k2s, 0.5 * h));
-            let (k3x, k3s) = stage(a1, &y3, &s3);
-            let (y4, s4) = (axpy(&x, &k3x, h), saxpy(&s, &k3s, h));
-            let (k4x, k4s) = stage(a2, &y4, &s4);
+            let k1x = stage(a0, &x, &s, k1s);
+            let y2 = axpy(&x, &k1x, 0.5 * h);
+            saxpy(&mut sy, &s, k1s, 0.5 * h);
+            let k2x = stage(a1, &y2, &sy, k2s);
+            let y3 = axpy(&x, &k2x, 0.5 * h);
+            saxpy(&mut sy, &s, k2s, 0.5 * h);
+            let k3x = stage(a1, &y3, &sy, k3s);
+            let y4 = axpy(&x, &k3x, h);
+            saxpy(&mut sy, &s, k3s, h);
+            let k4x = stage(a2, &y4, &sy, k4s);
             for r in 0..NX {
                 x[r] += h / 6.0 * (k1x[r] + 2.0 * k2x[r] + 2.0 * k3x[r] + k4x[r]);
-                for q in 0..np {
-                    s[r][q] +=
-                        h / 6.0 * (k1s[r][q] + 2.0 * k2s[r][q] + 2.0 * k3s[r][q] + k4s[r][q]);
-                }
+            }
+            for q in 0..NX * np {
+                s[q] += h / 6.0 * (k1s[q] + 2.0 * k2s[q] + 2.0 * k3s[q] + k4s[q]);
             }
         }
     }
     Shot {
         end: x,
-        d_end: s,
+        d_end: s.chunks(np).map(<[f64]>::to_vec).collect(),
         z,
         d_z,
     }
@@ -991,10 +999,8 @@ fn run(setup: &Setup, p: Vec<f64>) -> Polished6 {
     let mut p = match project(setup, p.clone()) {
         Ok(p) => p,
         Err(message) => {
-            let shot = shoot(setup, &p);
             return Polished6 {
                 controls: setup.controls(&p),
-                end: shot.end,
                 iterations: 0,
                 converged: false,
                 message,
@@ -1067,7 +1073,6 @@ fn run(setup: &Setup, p: Vec<f64>) -> Polished6 {
     }
     Polished6 {
         controls: setup.controls(&p),
-        end: shot.end,
         iterations,
         converged: outcome.is_ok(),
         message: outcome.err().unwrap_or_default(),

@@ -73,9 +73,7 @@ pub(super) fn hessian(
         }
         // Z = ∂(Y, u, t_f)/∂p.
         z.iter_mut().for_each(|v| *v = 0.0);
-        for r in 0..NX {
-            z[r * np..(r + 1) * np].copy_from_slice(&st.dy[r]);
-        }
+        z[..NX * np].copy_from_slice(st.dy);
         control_partials(setup, &c, st.k, st.a, &mut partials);
         for &(ui, pi, v) in &partials {
             z[(NX + ui) * np + pi] += v;
