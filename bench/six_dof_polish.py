@@ -3,10 +3,13 @@
 direct solve, the 6-DoF polish, the flown check) on the seeded 3-D states of
 bench/six_dof_vs_ipopt.py (nlp_6dof.dispersed_starts), one solve each; with
 --ipopt, IPOPT's raw solve of each state at the same N beside it, for the
-final masses.
+final masses; with --fine K, IPOPT on a fine mesh (40 intervals of 8 LGR
+points, the issue's "40 x 8") on the first K states, the reference for the
+polished final mass (about a minute per state).
 
     cargo build --release -p bellyflop --example six_dof_states
     bench/reference/.venv/bin/python bench/six_dof_polish.py --states 100 --ipopt
+    bench/reference/.venv/bin/python bench/six_dof_polish.py --states 20 --fine 20
 """
 import argparse
 import json
@@ -20,12 +23,11 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench" / "reference"))
 import nlp_6dof as six  # noqa: E402
 
-EXAMPLE = ROOT / "target" / "release" / "examples" / "six_dof_states"
+sys.path.insert(0, str(ROOT / "bench"))
+from six_dof_vs_ipopt import EXAMPLE, percentile  # noqa: E402
 
-
-def percentile(values, q):
-    v = sorted(values)
-    return v[min(len(v) - 1, int(round(q * (len(v) - 1))))]
+# The fine reference mesh: intervals x points per interval.
+FINE_INTERVALS, FINE_POINTS = 40, 8
 
 
 def main(argv=None):
@@ -35,6 +37,8 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=38)
     ap.add_argument("--nodes", type=int, default=20)
     ap.add_argument("--ipopt", action="store_true", help="IPOPT's raw final mass beside ours")
+    ap.add_argument("--fine", type=int, default=0, metavar="K",
+                    help="IPOPT on the 40 x 8 mesh on the first K states, against the polished final mass")
     a = ap.parse_args(argv)
     if not EXAMPLE.exists():
         sys.exit(f"build it first: cargo build --release -p bellyflop --example six_dof_states ({EXAMPLE})")
@@ -70,8 +74,34 @@ def main(argv=None):
         ref = {name: six.Nlp6(sc, a.nodes).solve(start, upright, 1)["mf_kg"] for name, sc, start, upright in starts}
         dm = sorted(r["mf_kg"] - ref[r["name"]] for r in solved)
         summary.update(polished_minus_ipopt_raw_kg_median=statistics.median(dm), worst_below=dm[0], most_above=dm[-1])
+    if a.fine:
+        summary.update(fine_reference(starts[:a.fine], {r["name"]: r for r in rows}))
     print(json.dumps(summary, indent=1))
     return 0
+
+
+def fine_reference(starts, ours):
+    """IPOPT on the fine mesh from the reference's straight line, and the
+    polished final mass against it where both are trustworthy (IPOPT
+    converged, ours solved)."""
+    per_state, gaps = [], []
+    for name, sc, start, upright in starts:
+        ref = six.Nlp6(sc, FINE_INTERVALS * FINE_POINTS, intervals=FINE_INTERVALS).solve(start, upright, 1)
+        mine = ours[name]
+        row = dict(name=name, ipopt_status=ref["status"], ipopt_converged=ref["converged"], fine_mf_kg=ref["mf_kg"],
+                   ours_status=mine["status"], ours_mf_kg=mine["mf_kg"])
+        if ref["converged"] and mine["status"] == "solved":
+            row["polished_minus_fine_kg"] = mine["mf_kg"] - ref["mf_kg"]
+            gaps.append(row["polished_minus_fine_kg"])
+        per_state.append(row)
+        print(json.dumps(row), file=sys.stderr, flush=True)
+    gaps.sort()
+    return dict(fine_states=len(starts), fine_compared=len(gaps),
+                fine_ipopt_converged=sum(1 for r in per_state if r["ipopt_converged"]),
+                polished_minus_fine_kg_median=statistics.median(gaps) if gaps else None,
+                polished_minus_fine_kg_worst_below=gaps[0] if gaps else None,
+                polished_minus_fine_kg_most_above=gaps[-1] if gaps else None,
+                within_half_kg=sum(1 for g in gaps if g >= -0.5))
 
 
 if __name__ == "__main__":
