@@ -89,6 +89,19 @@ pub fn hessian(
 /// curvature is still weighted by how fast the model bends along it). By
 /// faer's symmetric eigendecomposition, sequential; None if it fails.
 pub fn convexified(h: &[f64], floor: f64) -> Option<Vec<f64>> {
+    spectral(h, |l| l.abs().max(floor))
+}
+
+/// A positive definite matrix from the symmetric `h`: its eigenvalues
+/// below `floor` raised to it (a direction of negative curvature is left
+/// to the proximal weight and the merit rather than weighted by its
+/// magnitude, which makes Newton crawl along it; the 6-DoF polish).
+pub fn clipped(h: &[f64], floor: f64) -> Option<Vec<f64>> {
+    spectral(h, |l| l.max(floor))
+}
+
+/// U·g(Λ)·Uᵀ of the symmetric `h` = U·Λ·Uᵀ, for g ≥ 0.
+fn spectral(h: &[f64], g: impl Fn(f64) -> f64) -> Option<Vec<f64>> {
     use faer::dyn_stack::{MemBuffer, MemStack};
     use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
     use faer::{Mat, Par};
@@ -108,8 +121,8 @@ pub fn convexified(h: &[f64], floor: f64) -> Option<Vec<f64>> {
         Default::default(),
     )
     .ok()?;
-    // U·|Λ|·Uᵀ as (U·|Λ|^½)·(U·|Λ|^½)ᵀ.
-    let w = Mat::from_fn(n, n, |r, k| u[(r, k)] * s[k].abs().max(floor).sqrt());
+    // U·g(Λ)·Uᵀ as (U·g(Λ)^½)·(U·g(Λ)^½)ᵀ.
+    let w = Mat::from_fn(n, n, |r, k| u[(r, k)] * g(s[k]).sqrt());
     let mut product = Mat::<f64>::zeros(n, n);
     faer::linalg::matmul::matmul(
         product.as_mut(),
@@ -335,6 +348,18 @@ mod tests {
         }
         let zero = convexified(&[0.0; 4], 0.5).unwrap();
         assert!((zero[0] - 0.5).abs() < 1e-15 && zero[1].abs() < 1e-15);
+    }
+
+    /// [`clipped`] raises a negative eigenvalue to the floor on the same
+    /// eigenvector and keeps a positive one.
+    #[test]
+    fn clipped_raises_the_negative_curvature_to_the_floor() {
+        // Eigenvalues 3 and −1 on (1, 1)/√2 and (1, −1)/√2.
+        let c = clipped(&[1.0, 2.0, 2.0, 1.0], 0.5).unwrap();
+        // 3 and 0.5 on the same vectors: [[1.75, 1.25], [1.25, 1.75]].
+        for (a, b) in c.iter().zip([1.75, 1.25, 1.25, 1.75]) {
+            assert!((a - b).abs() < 1e-12, "{c:?}");
+        }
     }
 
     /// ∇Λ(p) = λ_fᵀ·∂y(t_f)/∂p from the forward sensitivities.

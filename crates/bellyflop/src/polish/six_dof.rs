@@ -2,29 +2,38 @@
 //! land and to be fuel-optimal by single shooting, as the planar polish
 //! does for the plane (a simpler parameterization, below).
 //!
-//! **The flown controls** ([`Controls6`]): on the collocation mesh of the
-//! raw answer, the thrust linear in time between the N collocation points
-//! and held from the last to t_f, and each gimbal angle linear between its
-//! N + 1 node values, so flown at the secant rate on each node interval;
-//! δ at t_0 is the start's. The references fly a collocation answer this
-//! way ([`crate::verify::flight::collocation_controls`]).
+//! **The flown controls** ([`Controls6`]): on N node intervals, the thrust
+//! linear in time between its N values at the starts of the intervals and
+//! held over the last, and each gimbal angle linear between its N + 1 node
+//! values, so flown at the secant rate on each interval; δ at t_0 is the
+//! start's. The references fly a collocation answer this way
+//! ([`crate::verify::flight::collocation_controls`]), from which the polish
+//! starts (the raw answer's mesh).
 //!
-//! **The problem** over p = (T_0 … T_{N−1}, δ1_1 … δ1_N, δ2_1 … δ2_N, t_f):
+//! **The problem** over p = (T_0 … T_{N−1}, δ1_1 … δ1_N, δ2_1 … δ2_N,
+//! d_0 … d_{N−1}), the node intervals' durations free (t_f = Σ d_k):
 //!
 //!   max m(t_f)  s.t.  r, V at the landing, q1 = q2 = 0, ω_x = ω_y = 0 at t_f,
-//!   T_min ≤ T_k ≤ T_max,  ‖δ_k‖ ≤ δ_max,  ‖δ_{k+1} − δ_k‖ ≤ χ_max·Δt_k,
+//!   T_min ≤ T_k ≤ T_max,  ‖δ_k‖ ≤ δ_max,  ‖δ_{k+1} − δ_k‖ ≤ χ_max·d_k,
+//!   d_min ≤ d_k ≤ d_max,k,
 //!   z ≥ z_f at every step of the shot before t_f,  m(t_f) ≥ m_dry.
+//!
+//! Free durations move the knots: a thrust ramp between two knots can
+//! shorten into a switch, as the planar polish's arcs have free switch
+//! times. With the knots fixed at the raw mesh's times the polished mass
+//! stayed 9–15 kg below IPOPT's on a fine (40 × 8) mesh; free, it is
+//! within about half a kilogram (`BENCHMARKS.md`).
 //!
 //! The control rows hold along the whole flight exactly: T is linear between
 //! in-bound values, δ is linear between nodes inside the disc ‖δ‖ ≤ δ_max
 //! (which lies inside the nozzle cone cos δ1·cos δ2 ≥ cos δ_max), and each
 //! interval's rate is constant. The discs are held as the faces of an
-//! inscribed [`FACES`]-gon, rows that are linear in p
-//! (Δt_k = t_f·(τ_{k+1} − τ_k)/2), so that no linearization error enters
-//! them.
+//! inscribed [`FACES`]-gon, rows that are linear in p, so that no
+//! linearization error enters them.
 //!
-//! The end state comes from RK4 at steps of at most [`STEP_S`] in
-//! normalized time s = t/t_f (dx/ds = t_f·f), with its exact sensitivities
+//! The end state comes from RK4 at steps of at most [`STEP_S`] (each
+//! interval's count of steps fixed from the raw mesh with room to grow by
+//! half) in each interval's normalized time σ (dx/dσ = d_k·f), with its exact sensitivities
 //! ∂x/∂p by the variational equations (f's Jacobian from
 //! [`six::jacobian`]). Each iteration solves a QP ([`crate::polish::qp`]):
 //! the linearized mass gain, the linearized landing with penalized slacks,
@@ -36,7 +45,9 @@
 //! Lagrangian's Hessian while the shot is far from the landing; once it is
 //! near, the exact Hessian of the Lagrangian at the current p (by the
 //! adjoint of the RK4 steps and the stages' forward sensitivities,
-//! [`hessian`]), made positive definite by its eigenvalues' magnitudes.
+//! [`hessian`]), its eigenvalues raised to a floor
+//! ([`crate::polish::hessian::clipped`]: weighting negative curvature by
+//! its magnitude halved the steps along it, and the polish crawled).
 //! BFGS alone converges linearly and stops short: on 30 seeded states
 //! (seed 7) the exact Hessian halves the median iterations (29 → 14) and
 //! ends 0.06–2.4 kg higher on each of the 27 that both land.
@@ -110,6 +121,11 @@ const LANDING: [(usize, f64); 10] = [
     (sx::W + 1, 0.01),
 ];
 
+/// The node intervals' least duration \[s\], and how much each may grow
+/// (its RK4 substeps are fixed for that).
+const MIN_DURATION_S: f64 = 0.02;
+const GROWTH: f64 = 1.5;
+
 /// The ground rows are held where the shot is within this of the pad \[m\].
 const GROUND_WINDOW_M: f64 = 200.0;
 
@@ -181,7 +197,7 @@ struct Params {
 
 impl Params {
     fn len(self) -> usize {
-        3 * self.n + 1
+        4 * self.n
     }
     fn thrust(self, k: usize) -> usize {
         k
@@ -190,8 +206,9 @@ impl Params {
     fn delta(self, j: usize, k: usize) -> usize {
         self.n + j * self.n + (k - 1)
     }
-    fn tf(self) -> usize {
-        3 * self.n
+    /// The duration of node interval k.
+    fn duration(self, k: usize) -> usize {
+        3 * self.n + k
     }
 }
 
@@ -200,8 +217,7 @@ struct Setup<'a> {
     model: &'a SixDof,
     x0: [f64; NX],
     target: &'a TerminalState,
-    tau: Vec<f64>,
-    /// RK4 substeps per node interval, fixed from the first t_f.
+    /// RK4 substeps per node interval, fixed from the raw answer's.
     substeps: Vec<usize>,
     par: Params,
     /// p's scales.
@@ -212,9 +228,17 @@ impl Setup<'_> {
     fn controls(&self, p: &[f64]) -> Controls6 {
         let n = self.par.n;
         let d0 = [self.x0[sx::DELTA], self.x0[sx::DELTA + 1]];
+        let tf_s: f64 = (0..n).map(|k| p[self.par.duration(k)]).sum();
+        let mut tau = vec![-1.0; n + 1];
+        let mut t = 0.0;
+        for k in 0..n {
+            t += p[self.par.duration(k)];
+            tau[k + 1] = 2.0 * t / tf_s - 1.0;
+        }
+        tau[n] = 1.0;
         Controls6 {
-            tf_s: p[self.par.tf()],
-            tau: self.tau.clone(),
+            tf_s,
+            tau,
             thrust_n: (0..n).map(|k| p[self.par.thrust(k)]).collect(),
             delta_rad: (0..=n)
                 .map(|k| {
@@ -275,13 +299,14 @@ fn control_partials(
         if k >= 1 {
             out.push((su::CHI + j, par.delta(j, k), -1.0 / dt));
         }
-        // χ = Δδ/(t_f·c_k): ∂χ/∂t_f = −χ/t_f.
-        out.push((su::CHI + j, par.tf(), -u[su::CHI + j] / c.tf_s));
+        // χ = Δδ/d_k: ∂χ/∂d_k = −χ/d_k.
+        out.push((su::CHI + j, par.duration(k), -u[su::CHI + j] / dt));
     }
 }
 
-/// (dx/ds, dS/ds) at (x, S) on interval k at fraction a: dx/ds = t_f·f,
-/// dS/ds = t_f·(f_x·S + f_u·∂u/∂p) + f ⊗ e_tf. S and dS/ds are NX rows of
+/// (dx/dσ, dS/dσ) at (x, S) on interval k at fraction a = σ of it, whose
+/// duration is d_k: dx/dσ = d_k·f, dS/dσ = d_k·(f_x·S + f_u·∂u/∂p) + f ⊗
+/// e_{d_k}. S and dS/dσ are NX rows of
 /// P, row-major; dS/ds is written into `ds`.
 #[allow(clippy::too_many_arguments)] // The stage, its place and its output.
 fn derivative(
@@ -298,7 +323,7 @@ fn derivative(
     let (f, jac) = six::jacobian(setup.model, x, &u);
     control_partials(setup, c, k, a, partials);
     let np = setup.par.len();
-    let tf = c.tf_s;
+    let dk = c.interval_s(k);
     ds.fill(0.0);
     for r in 0..NX {
         let row = &mut ds[r * np..(r + 1) * np];
@@ -314,11 +339,11 @@ fn derivative(
             row[pi] += jac[r][NX + ui] * v;
         }
         for o in row.iter_mut() {
-            *o *= tf;
+            *o *= dk;
         }
-        row[setup.par.tf()] += f[r];
+        row[setup.par.duration(k)] += f[r];
     }
-    std::array::from_fn(|r| tf * f[r])
+    std::array::from_fn(|r| dk * f[r])
 }
 
 /// One RK4 stage of a shot, as [`shoot_visiting`] shows it: node interval
@@ -358,9 +383,9 @@ fn shoot_visiting(setup: &Setup, p: &[f64], visit: &mut dyn FnMut(&Stage)) -> Sh
         }
     };
     for k in 0..setup.par.n {
-        let ds = 0.5 * (setup.tau[k + 1] - setup.tau[k]);
         let m = setup.substeps[k];
-        let h = ds / m as f64;
+        // σ ∈ [0, 1] on each interval.
+        let h = 1.0 / m as f64;
         for i in 0..m {
             if k > 0 || i > 0 {
                 z.push(x[sx::Z]);
@@ -452,11 +477,11 @@ fn control_rows(setup: &Setup, p: &[f64]) -> Vec<Row> {
         }
     }
     for k in 0..n {
-        // ‖δ_{k+1} − δ_k‖ ≤ χ_max·c_k·t_f, c_k = (τ_{k+1} − τ_k)/2.
+        // ‖δ_{k+1} − δ_k‖ ≤ χ_max·d_k.
         let (d0, d1) = (c.delta_rad[k], c.delta_rad[k + 1]);
         let diff = [d1[0] - d0[0], d1[1] - d0[1]];
-        let ck = 0.5 * (setup.tau[k + 1] - setup.tau[k]);
-        let reach = planar.max_gimbal_rate_radps * ck * cos_face;
+        let (dk, di) = (p[par.duration(k)], par.duration(k));
+        let reach = planar.max_gimbal_rate_radps * cos_face;
         for nv in faces() {
             let mut cols = Vec::with_capacity(5);
             for j in 0..2 {
@@ -465,12 +490,14 @@ fn control_rows(setup: &Setup, p: &[f64]) -> Vec<Row> {
                     cols.push((par.delta(j, k), -nv[j] * sc[par.delta(j, k)]));
                 }
             }
-            cols.push((par.tf(), -reach * sc[par.tf()]));
-            rows.push((cols, reach * c.tf_s - (nv[0] * diff[0] + nv[1] * diff[1])));
+            cols.push((di, -reach * sc[di]));
+            rows.push((cols, reach * dk - (nv[0] * diff[0] + nv[1] * diff[1])));
         }
+        // MIN_DURATION_S ≤ d_k ≤ its substeps' STEP_S each.
+        rows.push((vec![(di, -sc[di])], dk - MIN_DURATION_S));
+        let longest = setup.substeps[k] as f64 * STEP_S;
+        rows.push((vec![(di, sc[di])], longest - dk));
     }
-    // t_f stays above a tenth of itself.
-    rows.push((vec![(par.tf(), -sc[par.tf()])], 0.9 * p[par.tf()]));
     rows
 }
 
@@ -702,15 +729,17 @@ pub fn polish(model: &SixDof, x0: [f64; NX], target: &TerminalState, raw: &Contr
         scale[par.delta(0, k + 1)] = model.planar.max_gimbal_rad;
         scale[par.delta(1, k + 1)] = model.planar.max_gimbal_rad;
     }
-    scale[par.tf()] = raw.tf_s;
+    for k in 0..n {
+        scale[par.duration(k)] = raw.tf_s / n as f64;
+    }
+    // Room for each interval to grow by half with steps of at most STEP_S.
     let substeps = (0..n)
-        .map(|k| ((raw.interval_s(k) / STEP_S).ceil() as usize).max(1))
+        .map(|k| ((GROWTH * raw.interval_s(k) / STEP_S).ceil() as usize).max(1))
         .collect();
     let setup = Setup {
         model,
         x0,
         target,
-        tau: raw.tau.clone(),
         substeps,
         par,
         scale,
@@ -721,7 +750,9 @@ pub fn polish(model: &SixDof, x0: [f64; NX], target: &TerminalState, raw: &Contr
         p[par.delta(0, k + 1)] = raw.delta_rad[k + 1][0];
         p[par.delta(1, k + 1)] = raw.delta_rad[k + 1][1];
     }
-    p[par.tf()] = raw.tf_s;
+    for k in 0..n {
+        p[par.duration(k)] = raw.interval_s(k);
+    }
     run(&setup, p)
 }
 
@@ -909,9 +940,8 @@ fn finish_landing(setup: &Setup, p: &mut Vec<f64>, shot: &mut Shot) -> Result<()
 /// The QPs' curvature over p̂ (module docs): a damped BFGS model of the
 /// Lagrangian's Hessian, after its first update (before it, the proximal
 /// term alone); once the shot is near the landing, the exact Hessian at
-/// the current p with the last QP's multipliers ([`hessian`]), made
-/// positive definite by its eigenvalues' magnitudes
-/// ([`crate::polish::hessian::convexified`]).
+/// the current p with the last QP's multipliers ([`hessian`]), its
+/// eigenvalues raised to a floor ([`crate::polish::hessian::clipped`]).
 struct Curvature {
     bfgs: Vec<f64>,
     updated: bool,
@@ -954,7 +984,7 @@ impl Curvature {
                     h[i * np + j] *= sc[i] * sc[j];
                 }
             }
-            self.exact = crate::polish::hessian::convexified(&h, EIGENVALUE_FLOOR);
+            self.exact = crate::polish::hessian::clipped(&h, EIGENVALUE_FLOOR);
         }
     }
 
@@ -1087,7 +1117,7 @@ mod tests {
 
     /// A short seeded flight's setup and controls: N = 6 node intervals
     /// over 3 s from a state off the plane.
-    fn setup_and_p(model: &SixDof, target: &TerminalState) -> (Vec<f64>, [f64; NX], Vec<f64>) {
+    fn setup_and_p(model: &SixDof, target: &TerminalState) -> ([f64; NX], Vec<f64>) {
         let mut x0 = planar_state(&[-40.0, 300.0, 15.0, -70.0, 0.9, -0.25, 105_000.0, 0.12]);
         x0[sx::Y] = 25.0;
         x0[sx::VY] = -6.0;
@@ -1105,8 +1135,10 @@ mod tests {
             p[par.delta(0, k + 1)] = 0.12 - 0.03 * k as f64;
             p[par.delta(1, k + 1)] = 0.02 * (k as f64 - 2.0);
         }
-        p[par.tf()] = 3.0;
-        (tau, x0, p)
+        for k in 0..n {
+            p[par.duration(k)] = 0.5 * (tau[k + 1] - tau[k]) * 3.0;
+        }
+        (x0, p)
     }
 
     /// The Lagrangian's Hessian is the derivative of its gradient (central
@@ -1116,7 +1148,7 @@ mod tests {
     fn the_hessian_matches_differences_of_the_gradient() {
         let s = Scenario::paper();
         let model = SixDof::new(&s.vehicle, &s.environment);
-        let (tau, x0, p) = setup_and_p(&model, &s.terminal);
+        let (x0, p) = setup_and_p(&model, &s.terminal);
         let n = 6;
         let par = Params { n };
         let setup = Setup {
@@ -1124,7 +1156,6 @@ mod tests {
             x0,
             target: &s.terminal,
             substeps: vec![3; n],
-            tau,
             par,
             scale: vec![1.0; par.len()],
         };
@@ -1161,7 +1192,7 @@ mod tests {
     fn the_shots_sensitivities_match_differences() {
         let s = Scenario::paper();
         let model = SixDof::new(&s.vehicle, &s.environment);
-        let (tau, x0, p) = setup_and_p(&model, &s.terminal);
+        let (x0, p) = setup_and_p(&model, &s.terminal);
         let n = 6;
         let par = Params { n };
         let setup = Setup {
@@ -1169,7 +1200,6 @@ mod tests {
             x0,
             target: &s.terminal,
             substeps: vec![3; n],
-            tau,
             par,
             scale: vec![1.0; par.len()],
         };

@@ -3,25 +3,25 @@
 //! [`crate::polish::hessian`]).
 //!
 //! Λ(p) = λ_fᵀ·x(t_f; p) + Σ_i ζ_i·z(s_i; p), with λ_f and ζ from the last
-//! QP's multipliers ([`super::lagrangian_gradient`] is ∇Λ). One RK4 step in
-//! normalized time s with step h,
+//! QP's multipliers ([`super::lagrangian_gradient`] is ∇Λ). One RK4 step of
+//! node interval k (duration d_k) in its normalized time σ with step h,
 //!
-//!   x' = x + (h/6)·(K₁ + 2K₂ + 2K₃ + K₄),   K_i = t_f·f(Y_i, u(s_i; p)),
+//!   x' = x + (h/6)·(K₁ + 2K₂ + 2K₃ + K₄),   K_i = d_k·f(Y_i, u(σ_i; p)),
 //!   Y₁ = x,  Y₂ = x + (h/2)·K₁,  Y₃ = x + (h/2)·K₂,  Y₄ = x + h·K₃,
 //!
 //! is linear in (x, K) except for the four stage equations. With κ_i =
-//! ∂Λ/∂K_i, from λ' = ∂Λ/∂x' backwards (G_i = t_f·∂f/∂x at stage i),
+//! ∂Λ/∂K_i, from λ' = ∂Λ/∂x' backwards (G_i = d_k·∂f/∂x at stage i),
 //!
 //!   κ₄ = (h/6)·λ',  κ₃ = (h/3)·λ' + h·G₄ᵀκ₄,  κ₂ = (h/3)·λ' + (h/2)·G₃ᵀκ₃,
 //!   κ₁ = (h/6)·λ' + (h/2)·G₂ᵀκ₂,   λ = λ' + Σ G_iᵀκ_i (+ ζ at a ground point),
 //!
 //! the Hessian is the sum over every stage of
 //!
-//!   Z_iᵀ · ∇²_{(Y, u, t_f)} [t_f·κ_iᵀ f(Y, u)] · Z_i  +  Σ_j g_ij·∇²χ_j(p),
+//!   Z_iᵀ · ∇²_{(Y, u, d_k)} [d_k·κ_iᵀ f(Y, u)] · Z_i  +  Σ_j g_ij·∇²χ_j(p),
 //!
-//! Z_i = ∂(Y_i, u_i, t_f)/∂p the stage's forward sensitivities, and the last
-//! term the curvature of the secant rate χ_j = Δδ_j/(c_k·t_f) in p, weighted
-//! by g_ij = t_f·κ_iᵀ ∂f/∂χ_j (u's thrust is linear in p). The weighted
+//! Z_i = ∂(Y_i, u_i, d_k)/∂p the stage's forward sensitivities, and the last
+//! term the curvature of the secant rate χ_j = Δδ_j/d_k in p, weighted
+//! by g_ij = d_k·κ_iᵀ ∂f/∂χ_j (u's thrust is linear in p). The weighted
 //! second derivatives of f come from the model's term-by-term
 //! [`Differentiable::point_derivatives`].
 
@@ -29,9 +29,9 @@ use super::{control_partials, shoot_visiting, Setup, Shot, Stage};
 use crate::collocation::derivatives::{Differentiable, PointDerivatives};
 use crate::problem::six_dof::{self as six, su, NU, NX};
 
-/// The stage's inputs (Y, u) and t_f.
+/// The stage's inputs (Y, u) and its interval's duration d_k.
 const NV: usize = NX + NU + 1;
-const TF: usize = NX + NU;
+const D: usize = NX + NU;
 
 /// ∇²Λ(p) (P², row-major, symmetric) for λ(t_f) = `lambda_f` and the
 /// ground's weights ζ at step points `ground` (module docs).
@@ -44,7 +44,6 @@ pub(super) fn hessian(
     let kappa = stage_multipliers(setup, p, lambda_f, ground);
     let np = setup.par.len();
     let c = setup.controls(p);
-    let tf = c.tf_s;
     let mut h = vec![0.0; np * np];
     let mut at = 0;
     let mut partials = Vec::with_capacity(8);
@@ -56,46 +55,46 @@ pub(super) fn hessian(
         let kap = &kappa[at];
         at += 1;
         let u = c.at_fraction(st.k, st.a);
+        let (dk, di) = (c.interval_s(st.k), setup.par.duration(st.k));
         let input: [f64; NX + NU] =
             std::array::from_fn(|i| if i < NX { st.y[i] } else { u[i - NX] });
         setup
             .model
             .point_derivatives::<NX, { NX + NU }>(&input, &ones, kap, &[], &mut point);
-        // W = ∇²_{(Y, u, t_f)} [t_f·κᵀf].
+        // W = ∇²_{(Y, u, d_k)} [d_k·κᵀf].
         let mut w = [[0.0; NV]; NV];
         for a in 0..NX + NU {
             for b in 0..NX + NU {
-                w[a][b] = tf * point.hess[a][b];
+                w[a][b] = dk * point.hess[a][b];
             }
             let g: f64 = (0..NX).map(|r| kap[r] * point.jac[r][a]).sum();
-            w[a][TF] = g;
-            w[TF][a] = g;
+            w[a][D] = g;
+            w[D][a] = g;
         }
-        // Z = ∂(Y, u, t_f)/∂p.
+        // Z = ∂(Y, u, d_k)/∂p.
         z.iter_mut().for_each(|v| *v = 0.0);
         z[..NX * np].copy_from_slice(st.dy);
         control_partials(setup, &c, st.k, st.a, &mut partials);
         for &(ui, pi, v) in &partials {
             z[(NX + ui) * np + pi] += v;
         }
-        z[TF * np + setup.par.tf()] = 1.0;
+        z[D * np + di] = 1.0;
         add_quadratic_form(&mut h, np, &w, &z, &mut wz);
-        // The secant rates' own curvature in (δ_k, δ_{k+1}, t_f).
-        let dt = c.interval_s(st.k);
+        // The secant rates' own curvature in (δ_k, δ_{k+1}, d_k).
         for j in 0..2 {
-            let g = tf * w[NX + su::CHI + j][TF];
-            let (ti, chi) = (setup.par.tf(), u[su::CHI + j]);
+            let g = dk * w[NX + su::CHI + j][D];
+            let (ti, chi) = (di, u[su::CHI + j]);
             let mut add = |a: usize, b: usize, v: f64| {
                 h[a * np + b] += v;
                 if a != b {
                     h[b * np + a] += v;
                 }
             };
-            add(setup.par.delta(j, st.k + 1), ti, -g / (dt * tf));
+            add(setup.par.delta(j, st.k + 1), ti, -g / (dk * dk));
             if st.k >= 1 {
-                add(setup.par.delta(j, st.k), ti, g / (dt * tf));
+                add(setup.par.delta(j, st.k), ti, g / (dk * dk));
             }
-            add(ti, ti, g * 2.0 * chi / (tf * tf));
+            add(ti, ti, g * 2.0 * chi / (dk * dk));
         }
     });
     // Symmetric to the last bit (the two triangles summed in different
@@ -147,20 +146,20 @@ fn stage_multipliers(
     ground: &[(usize, f64)],
 ) -> Vec<[f64; NX]> {
     let c = setup.controls(p);
-    let tf = c.tf_s;
-    // G_i = t_f·∂f/∂x at each stage.
+    // G_i = d_k·∂f/∂x at each stage.
     let mut g: Vec<[[f64; NX]; NX]> = Vec::new();
     shoot_visiting(setup, p, &mut |st: &Stage| {
         let u = c.at_fraction(st.k, st.a);
         let (_, jac) = six::jacobian(setup.model, st.y, &u);
+        let dk = c.interval_s(st.k);
         g.push(std::array::from_fn(|r| {
-            std::array::from_fn(|m| tf * jac[r][m])
+            std::array::from_fn(|m| dk * jac[r][m])
         }));
     });
     let steps: Vec<f64> = (0..setup.par.n)
         .flat_map(|k| {
             let m = setup.substeps[k];
-            let h = 0.5 * (setup.tau[k + 1] - setup.tau[k]) / m as f64;
+            let h = 1.0 / m as f64;
             std::iter::repeat_n(h, m)
         })
         .collect();
