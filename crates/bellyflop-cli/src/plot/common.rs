@@ -68,6 +68,26 @@ pub(super) fn min_max(values: impl IntoIterator<Item = f64>) -> (f64, f64) {
         })
 }
 
+/// The bounds near the data in [lo, hi] (within half its span), and
+/// [lo, hi] widened to show them.
+pub(super) fn near_bounds<'a>(
+    lo: &mut f64,
+    hi: &mut f64,
+    bounds: &[(f64, &'a str)],
+) -> Vec<(f64, &'a str)> {
+    let span = (*hi - *lo).max(1e-12);
+    let shown: Vec<(f64, &str)> = bounds
+        .iter()
+        .copied()
+        .filter(|(b, _)| *b > *lo - 0.5 * span && *b < *hi + 0.5 * span)
+        .collect();
+    for (b, _) in &shown {
+        *lo = lo.min(*b);
+        *hi = hi.max(*b);
+    }
+    shown
+}
+
 /// A step in the 1-2-5 series near `span / count`.
 pub(super) fn nice_step(span: f64, count: f64) -> f64 {
     let raw = span / count;

@@ -7,7 +7,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::FontStyle;
 
 use super::common::{
-    min_max, padded, text, tick, Chart, Res, BREAK, FONT, GREY, OVERLAY, SOLUTION, SWITCH,
+    min_max, near_bounds, padded, text, tick, Chart, Res, BREAK, FONT, GREY, OVERLAY, SOLUTION,
+    SWITCH,
 };
 use super::data::PlotData;
 use crate::sample::Dense;
@@ -118,18 +119,7 @@ fn draw_history<DB: DrawingBackend>(
             .chain(y_over.iter().flatten())
             .copied(),
     );
-    // Show a bound when it is near the data (within half the data span).
-    let span = (hi - lo).max(1e-12);
-    let shown: Vec<(f64, &str)> = h
-        .bounds
-        .iter()
-        .copied()
-        .filter(|(b, _)| *b > lo - 0.5 * span && *b < hi + 0.5 * span)
-        .collect();
-    for (b, _) in &shown {
-        lo = lo.min(*b);
-        hi = hi.max(*b);
-    }
+    let shown = near_bounds(&mut lo, &mut hi, &h.bounds);
     let t_range = 0.0..tf * 1.02;
     let mut chart = ChartBuilder::on(area)
         .margin(10)

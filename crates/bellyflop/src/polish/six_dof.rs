@@ -1116,13 +1116,12 @@ mod tests {
     use crate::problem::six_dof::planar_state;
 
     /// A short seeded flight's setup and controls: N = 6 node intervals
-    /// over 3 s from a state off the plane.
-    fn setup_and_p(model: &SixDof, target: &TerminalState) -> ([f64; NX], Vec<f64>) {
+    /// over 3 s from a state off the plane, each of 3 RK4 steps, unscaled.
+    fn fixture<'a>(model: &'a SixDof, target: &'a TerminalState) -> (Setup<'a>, Vec<f64>) {
         let mut x0 = planar_state(&[-40.0, 300.0, 15.0, -70.0, 0.9, -0.25, 105_000.0, 0.12]);
         x0[sx::Y] = 25.0;
         x0[sx::VY] = -6.0;
         x0[sx::W + 2] = 0.02;
-        let _ = target;
         let tau: Vec<f64> = (0..=6)
             .map(|k| -1.0 + 2.0 * (k as f64 / 6.0).powf(1.2))
             .collect();
@@ -1134,11 +1133,17 @@ mod tests {
                 + (0.2 + 0.1 * k as f64) * (model.planar.max_thrust_n - model.planar.min_thrust_n);
             p[par.delta(0, k + 1)] = 0.12 - 0.03 * k as f64;
             p[par.delta(1, k + 1)] = 0.02 * (k as f64 - 2.0);
-        }
-        for k in 0..n {
             p[par.duration(k)] = 0.5 * (tau[k + 1] - tau[k]) * 3.0;
         }
-        (x0, p)
+        let setup = Setup {
+            model,
+            x0,
+            target,
+            substeps: vec![3; n],
+            par,
+            scale: vec![1.0; par.len()],
+        };
+        (setup, p)
     }
 
     /// The Lagrangian's Hessian is the derivative of its gradient (central
@@ -1148,17 +1153,8 @@ mod tests {
     fn the_hessian_matches_differences_of_the_gradient() {
         let s = Scenario::paper();
         let model = SixDof::new(&s.vehicle, &s.environment);
-        let (x0, p) = setup_and_p(&model, &s.terminal);
-        let n = 6;
-        let par = Params { n };
-        let setup = Setup {
-            model: &model,
-            x0,
-            target: &s.terminal,
-            substeps: vec![3; n],
-            par,
-            scale: vec![1.0; par.len()],
-        };
+        let (setup, p) = fixture(&model, &s.terminal);
+        let par = setup.par;
         let mult = Multipliers {
             landing: (0..10).map(|j| 0.3 - 0.07 * j as f64).collect(),
             ground: vec![(4, 0.02), (11, -0.01)],
@@ -1192,17 +1188,8 @@ mod tests {
     fn the_shots_sensitivities_match_differences() {
         let s = Scenario::paper();
         let model = SixDof::new(&s.vehicle, &s.environment);
-        let (x0, p) = setup_and_p(&model, &s.terminal);
-        let n = 6;
-        let par = Params { n };
-        let setup = Setup {
-            model: &model,
-            x0,
-            target: &s.terminal,
-            substeps: vec![3; n],
-            par,
-            scale: vec![1.0; par.len()],
-        };
+        let (setup, p) = fixture(&model, &s.terminal);
+        let par = setup.par;
         let shot = shoot(&setup, &p);
         for i in 0..par.len() {
             let h = 1e-6 * p[i].abs().max(1.0);

@@ -8,7 +8,7 @@ use plotters::style::FontStyle;
 
 use super::SixDofPlot;
 use crate::plot::common::{
-    min_max, padded, text, tick, Res, FONT, GREY, OVERLAY, SOLUTION, SWITCH,
+    min_max, near_bounds, padded, text, tick, Res, FONT, GREY, OVERLAY, SOLUTION, SWITCH,
 };
 use bellyflop::problem::six_dof::{su, sx};
 
@@ -132,18 +132,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, tf: f64, p: &Pa
     if lo > hi {
         (lo, hi) = (0.0, 1.0);
     }
-    // A bound is shown when it is near the data (within half its span).
-    let span = (hi - lo).max(1e-12);
-    let shown: Vec<(f64, &str)> = p
-        .bounds
-        .iter()
-        .copied()
-        .filter(|(b, _)| *b > lo - 0.5 * span && *b < hi + 0.5 * span)
-        .collect();
-    for (b, _) in &shown {
-        lo = lo.min(*b);
-        hi = hi.max(*b);
-    }
+    let shown = near_bounds(&mut lo, &mut hi, &p.bounds);
     let t_end = if tf.is_finite() && tf > 0.0 {
         tf * 1.02
     } else {
