@@ -41,11 +41,11 @@
 //! term ε‖Δp̂‖² that grows on a poor step (an exact-penalty merit judges
 //! each by its own shot).
 //!
-//! **The curvature** of the QPs ([`Curvature`]): a damped BFGS model of the
+//! **The curvature** of the QPs (`Curvature`): a damped BFGS model of the
 //! Lagrangian's Hessian while the shot is far from the landing; once it is
 //! near, the exact Hessian of the Lagrangian at the current p (by the
 //! adjoint of the RK4 steps and the stages' forward sensitivities,
-//! [`hessian`]), its eigenvalues raised to a floor
+//! `hessian`), its eigenvalues raised to a floor
 //! ([`crate::polish::hessian::clipped`]: weighting negative curvature by
 //! its magnitude halved the steps along it, and the polish crawled).
 //! BFGS alone converges linearly and stops short: on 30 seeded states
@@ -53,7 +53,7 @@
 //! ends 0.06–2.4 kg higher on each of the 27 that both land.
 //!
 //! **Corrections:** a trial step whose merit falls short is corrected (a
-//! second-order correction, Maratos) by [`correction`]: the least change
+//! second-order correction, Maratos) by `correction`: the least change
 //! that zeroes the trial's landing residual to first order and holds every
 //! control row. At convergence the thrust is put on its box and the same
 //! corrections take the landing residual below [`CORRECTED_RESIDUAL`].
