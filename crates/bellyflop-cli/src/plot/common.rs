@@ -88,6 +88,34 @@ pub(super) fn near_bounds<'a>(
     shown
 }
 
+/// A time-history panel's chart: `label` over t ∈ `t_range` and the
+/// values in [lo, hi] (padded), with its mesh drawn.
+pub(super) fn history_chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, plotters::coord::Shift>,
+    label: &str,
+    t_range: Range<f64>,
+    (lo, hi): (f64, f64),
+) -> Result<Chart<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
+    let mut chart = ChartBuilder::on(area)
+        .margin(10)
+        .margin_right(18)
+        .x_label_area_size(40)
+        .y_label_area_size(72)
+        .caption(label, text(17.0))
+        .build_cartesian_2d(t_range, padded(lo, hi, 0.07))?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .x_label_formatter(&|v| tick(*v))
+        .label_style(text(13.0))
+        .axis_desc_style(text(14.0))
+        .light_line_style(RGBColor(238, 238, 238))
+        .bold_line_style(RGBColor(218, 218, 218))
+        .y_label_formatter(&|v| tick(*v))
+        .draw()?;
+    Ok(chart)
+}
+
 /// A step in the 1-2-5 series near `span / count`.
 pub(super) fn nice_step(span: f64, count: f64) -> f64 {
     let raw = span / count;

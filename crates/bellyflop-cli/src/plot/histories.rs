@@ -7,7 +7,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::FontStyle;
 
 use super::common::{
-    min_max, near_bounds, padded, text, tick, Chart, Res, BREAK, FONT, GREY, OVERLAY, SOLUTION,
+    history_chart, min_max, near_bounds, text, Chart, Res, BREAK, FONT, GREY, OVERLAY, SOLUTION,
     SWITCH,
 };
 use super::data::PlotData;
@@ -121,23 +121,7 @@ fn draw_history<DB: DrawingBackend>(
     );
     let shown = near_bounds(&mut lo, &mut hi, &h.bounds);
     let t_range = 0.0..tf * 1.02;
-    let mut chart = ChartBuilder::on(area)
-        .margin(10)
-        .margin_right(18)
-        .x_label_area_size(40)
-        .y_label_area_size(72)
-        .caption(h.label, text(17.0))
-        .build_cartesian_2d(t_range.clone(), padded(lo, hi, 0.07))?;
-    chart
-        .configure_mesh()
-        .x_desc("t [s]")
-        .x_label_formatter(&|v| tick(*v))
-        .label_style(text(13.0))
-        .axis_desc_style(text(14.0))
-        .light_line_style(RGBColor(238, 238, 238))
-        .bold_line_style(RGBColor(218, 218, 218))
-        .y_label_formatter(&|v| tick(*v))
-        .draw()?;
+    let mut chart = history_chart(area, h.label, t_range.clone(), (lo, hi))?;
 
     draw_marks(&mut chart, d, &shown, t_range.end)?;
     draw_curves(&mut chart, d, &y, &y_nodes, y_over.as_deref())?;

@@ -8,7 +8,7 @@ use plotters::style::FontStyle;
 
 use super::SixDofPlot;
 use crate::plot::common::{
-    min_max, near_bounds, padded, text, tick, Res, FONT, GREY, OVERLAY, SOLUTION, SWITCH,
+    history_chart, min_max, near_bounds, text, Res, FONT, GREY, OVERLAY, SOLUTION, SWITCH,
 };
 use bellyflop::problem::six_dof::{su, sx};
 
@@ -138,23 +138,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, tf: f64, p: &Pa
     } else {
         1.0
     };
-    let mut chart = ChartBuilder::on(area)
-        .margin(10)
-        .margin_right(18)
-        .x_label_area_size(40)
-        .y_label_area_size(72)
-        .caption(p.label, text(17.0))
-        .build_cartesian_2d(0.0..t_end, padded(lo, hi, 0.07))?;
-    chart
-        .configure_mesh()
-        .x_desc("t [s]")
-        .x_label_formatter(&|v| tick(*v))
-        .label_style(text(13.0))
-        .axis_desc_style(text(14.0))
-        .light_line_style(RGBColor(238, 238, 238))
-        .bold_line_style(RGBColor(218, 218, 218))
-        .y_label_formatter(&|v| tick(*v))
-        .draw()?;
+    let mut chart = history_chart(area, p.label, 0.0..t_end, (lo, hi))?;
     for (b, name) in &shown {
         chart.draw_series(DashedLineSeries::new(
             vec![(0.0, *b), (t_end, *b)],
