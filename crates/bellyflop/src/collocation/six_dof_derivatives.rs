@@ -217,25 +217,10 @@ fn quaternion_rate_term(
     mu: [f64; 4],
     slots: &[usize],
 ) -> Local<4> {
-    // C_ijk (quaternion_rate's products), as (i, j, k, sign).
-    const C: [(usize, usize, usize, f64); 12] = [
-        (0, 1, 0, -1.0),
-        (0, 2, 1, -1.0),
-        (0, 3, 2, -1.0),
-        (1, 0, 0, 1.0),
-        (1, 2, 2, 1.0),
-        (1, 3, 1, -1.0),
-        (2, 0, 1, 1.0),
-        (2, 3, 0, 1.0),
-        (2, 1, 2, -1.0),
-        (3, 0, 2, 1.0),
-        (3, 1, 1, 1.0),
-        (3, 2, 0, -1.0),
-    ];
     let mut t = Local::<4>::new(slots);
     let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
     let pull = kappa * (1.0 - n2);
-    for &(i, j, k, c) in &C {
+    for &(i, j, k, c) in &six::QUATERNION_PRODUCT {
         t.f[i] += 0.5 * c * q[j] * w[k];
         t.jac[i][j] += 0.5 * c * w[k];
         t.jac[i][4 + k] += 0.5 * c * q[j];

@@ -44,10 +44,13 @@
 //! entries the gyroscopic term has none either: the roll rate ω_z is
 //! conserved. The model has no roll control (an RCS would add one).
 
-use num_dual::{DualNum, DualSVec64};
+use num_dual::DualNum;
 
 use crate::input::scenario::{Environment, InitialState, Vehicle};
 use crate::problem::dynamics::Model;
+
+mod jacobian;
+pub use jacobian::{jacobian, QUATERNION_PRODUCT};
 
 /// Number of states.
 pub const NX: usize = 16;
@@ -306,26 +309,6 @@ pub fn rhs<D: DualNum<Primitive = f64> + Copy>(
     out
 }
 
-/// [`rhs`] and its Jacobian against (state, control), by forward-mode dual
-/// numbers.
-pub fn jacobian(model: &SixDof, s: &[f64; NX], u: &[f64; NU]) -> ([f64; NX], [[f64; NX + NU]; NX]) {
-    type D = DualSVec64<{ NX + NU }>;
-    let sd: [D; NX] = std::array::from_fn(|i| D::from_re(s[i]).derivative(i));
-    let ud: [D; NU] = std::array::from_fn(|j| D::from_re(u[j]).derivative(NX + j));
-    let out = rhs(model, &sd, &ud);
-    let mut f = [0.0; NX];
-    let mut jac = [[0.0; NX + NU]; NX];
-    for (r, o) in out.iter().enumerate() {
-        f[r] = o.re;
-        if let Some(eps) = &o.eps.0 {
-            for c in 0..NX + NU {
-                jac[r][c] = eps[c];
-            }
-        }
-    }
-    (f, jac)
-}
-
 /// The 6-DoF state of a planar state (x, z, Vx, Vz, θ, w, m, δ): y = V_y = 0,
 /// q = (cos θ/2, 0, −sin θ/2, 0), ω = (0, −w, 0), δ1 = δ, δ2 = 0.
 pub fn planar_state(y: &[f64; 8]) -> [f64; NX] {
@@ -400,8 +383,33 @@ mod tests {
     use super::*;
     use crate::input::scenario::Scenario;
     use crate::problem::dynamics::rhs_physical;
+    use num_dual::DualSVec64;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    /// The whole-f reference for [`jacobian`]: one forward-mode pass of
+    /// NX + NU-direction dual numbers through [`rhs`].
+    fn jacobian_by_duals(
+        model: &SixDof,
+        s: &[f64; NX],
+        u: &[f64; NU],
+    ) -> ([f64; NX], [[f64; NX + NU]; NX]) {
+        type D = DualSVec64<{ NX + NU }>;
+        let sd: [D; NX] = std::array::from_fn(|i| D::from_re(s[i]).derivative(i));
+        let ud: [D; NU] = std::array::from_fn(|j| D::from_re(u[j]).derivative(NX + j));
+        let out = rhs(model, &sd, &ud);
+        let mut f = [0.0; NX];
+        let mut jac = [[0.0; NX + NU]; NX];
+        for (r, o) in out.iter().enumerate() {
+            f[r] = o.re;
+            if let Some(eps) = &o.eps.0 {
+                for c in 0..NX + NU {
+                    jac[r][c] = eps[c];
+                }
+            }
+        }
+        (f, jac)
+    }
 
     fn paper() -> SixDof {
         let s = Scenario::paper();
@@ -607,6 +615,32 @@ mod tests {
                         (jac[r][c] - fd).abs() <= tol,
                         "∂f{r}/∂{c}: {} against {fd}",
                         jac[r][c]
+                    );
+                }
+            }
+        }
+    }
+
+    /// The term-by-term Jacobian is the whole-f dual pass's, to rounding,
+    /// in and out of the plane, and its f is [`rhs`]'s exactly.
+    #[test]
+    fn the_closed_form_jacobian_is_the_dual_one() {
+        let model = paper();
+        let mut rng = ChaCha8Rng::seed_from_u64(41);
+        for _ in 0..50 {
+            let (s, u) = (random_state(&mut rng), random_control(&mut rng));
+            let (f, jac) = jacobian(&model, &s, &u);
+            let (f_ref, jac_ref) = jacobian_by_duals(&model, &s, &u);
+            assert_eq!(f, rhs(&model, &s, &u));
+            for r in 0..NX {
+                assert!((f[r] - f_ref[r]).abs() <= 1e-14 * f_ref[r].abs().max(1.0));
+                let size = jac_ref[r].iter().fold(1.0_f64, |a, v| a.max(v.abs()));
+                for c in 0..NX + NU {
+                    assert!(
+                        (jac[r][c] - jac_ref[r][c]).abs() <= 1e-12 * size,
+                        "∂f{r}/∂{c}: {} against {}",
+                        jac[r][c],
+                        jac_ref[r][c]
                     );
                 }
             }
