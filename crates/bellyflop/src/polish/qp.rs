@@ -181,6 +181,10 @@ fn step_to_boundary(v: &[f64], dv: &[f64]) -> f64 {
 /// eliminated into H ([`Factors`]).
 const KEEP_WEIGHT: f64 = 1e4;
 
+/// Rows of more terms than this enter H through a dense copy
+/// ([`Factors::add_long_row`]).
+const LONG_ROW: usize = 16;
+
 /// The factors of one Newton matrix (column-major). The inequality rows
 /// split by their weight w = z/s: those below [`KEEP_WEIGHT`] and the
 /// bounds of one variable are eliminated into H = diag(p) + shift·I +
@@ -206,6 +210,8 @@ struct Factors {
     h: Vec<f64>,
     v: Vec<f64>,
     schur: Vec<f64>,
+    /// A long row's dense copy.
+    row: Vec<f64>,
 }
 
 impl Factors {
@@ -219,6 +225,35 @@ impl Factors {
             h: vec![0.0; n * n],
             v: Vec::new(),
             schur: Vec::new(),
+            row: Vec::new(),
+        }
+    }
+
+    /// H += w·g·gᵀ for a row of many terms (the polish's ground and mass
+    /// rows, dense in the parameters), through a dense copy of g over its
+    /// span of columns, so that each column of H's lower triangle takes one
+    /// contiguous update that the compiler vectorizes. The same products
+    /// in the same order as the sparse loop (plus zeros), so the same H;
+    /// the sparse loop's scattered pairs were 45 % of a 6-DoF polish
+    /// (`perf`, ~280 rows of 83 terms, 30 factorizations a QP).
+    fn add_long_row(&mut self, terms: &[(usize, f64)], w: f64) {
+        let n = self.n;
+        let lo = terms.iter().map(|t| t.0).min().unwrap_or(0);
+        let hi = terms.iter().map(|t| t.0 + 1).max().unwrap_or(0);
+        self.row.clear();
+        self.row.resize(hi - lo, 0.0);
+        for &(c, a) in terms {
+            self.row[c - lo] += a;
+        }
+        for (i, &a) in self.row.iter().enumerate() {
+            let wa = w * a;
+            if wa != 0.0 {
+                let c = lo + i;
+                self.h[c * n + c..c * n + hi]
+                    .iter_mut()
+                    .zip(&self.row[i..])
+                    .for_each(|(h, b)| *h += wa * b);
+            }
         }
     }
 
@@ -259,6 +294,10 @@ impl Factors {
             if wk > KEEP_WEIGHT && terms.len() > 1 {
                 self.kept.push(k);
                 self.d.push(1.0 / wk);
+                continue;
+            }
+            if terms.len() > LONG_ROW {
+                self.add_long_row(terms, wk);
                 continue;
             }
             for &(c, a) in terms {

@@ -189,7 +189,10 @@ pub struct Polished6 {
     pub message: String,
 }
 
-/// The layout of p (module docs).
+/// The layout of p (module docs), by node interval: block k is (T_k,
+/// δ1_{k+1}, δ2_{k+1}, d_k), so that the controls of intervals 0..=k (which
+/// read T_{k+1}) are the first [`Params::live`] entries, and a shot's
+/// sensitivities on interval k need no more columns.
 #[derive(Debug, Clone, Copy)]
 struct Params {
     n: usize,
@@ -200,15 +203,20 @@ impl Params {
         4 * self.n
     }
     fn thrust(self, k: usize) -> usize {
-        k
+        4 * k
     }
     /// δ_j at node k ≥ 1.
     fn delta(self, j: usize, k: usize) -> usize {
-        self.n + j * self.n + (k - 1)
+        4 * (k - 1) + 1 + j
     }
     /// The duration of node interval k.
     fn duration(self, k: usize) -> usize {
-        3 * self.n + k
+        4 * k + 3
+    }
+    /// The entries of p that the flight up to the end of interval k
+    /// depends on: the blocks 0..=k + 1.
+    fn live(self, k: usize) -> usize {
+        (4 * (k + 2)).min(self.len())
     }
 }
 
@@ -322,15 +330,17 @@ fn derivative(
     let u = c.at_fraction(k, a);
     let (f, jac) = six::jacobian(setup.model, x, &u);
     control_partials(setup, c, k, a, partials);
-    let np = setup.par.len();
+    let (np, live) = (setup.par.len(), setup.par.live(k));
     let dk = c.interval_s(k);
-    ds.fill(0.0);
     for r in 0..NX {
-        let row = &mut ds[r * np..(r + 1) * np];
+        // The columns past `live` are zero in S and stay so (`live` grows
+        // with k).
+        let row = &mut ds[r * np..r * np + live];
+        row.fill(0.0);
         for m in 0..NX {
             let j = jac[r][m];
             if j != 0.0 {
-                for (o, v) in row.iter_mut().zip(&s[m * np..(m + 1) * np]) {
+                for (o, v) in row.iter_mut().zip(&s[m * np..m * np + live]) {
                     *o += j * v;
                 }
             }
@@ -377,13 +387,21 @@ fn shoot_visiting(setup: &Setup, p: &[f64], visit: &mut dyn FnMut(&Stage)) -> Sh
     let axpy = |x: &[f64; NX], k: &[f64; NX], h: f64| -> [f64; NX] {
         std::array::from_fn(|i| x[i] + h * k[i])
     };
-    let saxpy = |out: &mut [f64], s: &[f64], k: &[f64], h: f64| {
-        for ((o, a), b) in out.iter_mut().zip(s).zip(k) {
-            *o = a + h * b;
+    // out = s + h·k on the first `live` columns of each of the NX rows.
+    let saxpy = |out: &mut [f64], s: &[f64], k: &[f64], h: f64, live: usize| {
+        for r in 0..NX {
+            let span = r * np..r * np + live;
+            for ((o, a), b) in out[span.clone()]
+                .iter_mut()
+                .zip(&s[span.clone()])
+                .zip(&k[span])
+            {
+                *o = a + h * b;
+            }
         }
     };
     for k in 0..setup.par.n {
-        let m = setup.substeps[k];
+        let (m, live) = (setup.substeps[k], setup.par.live(k));
         // σ ∈ [0, 1] on each interval.
         let h = 1.0 / m as f64;
         for i in 0..m {
@@ -400,19 +418,21 @@ fn shoot_visiting(setup: &Setup, p: &[f64], visit: &mut dyn FnMut(&Stage)) -> Sh
             };
             let k1x = stage(a0, &x, &s, k1s);
             let y2 = axpy(&x, &k1x, 0.5 * h);
-            saxpy(&mut sy, &s, k1s, 0.5 * h);
+            saxpy(&mut sy, &s, k1s, 0.5 * h, live);
             let k2x = stage(a1, &y2, &sy, k2s);
             let y3 = axpy(&x, &k2x, 0.5 * h);
-            saxpy(&mut sy, &s, k2s, 0.5 * h);
+            saxpy(&mut sy, &s, k2s, 0.5 * h, live);
             let k3x = stage(a1, &y3, &sy, k3s);
             let y4 = axpy(&x, &k3x, h);
-            saxpy(&mut sy, &s, k3s, h);
+            saxpy(&mut sy, &s, k3s, h, live);
             let k4x = stage(a2, &y4, &sy, k4s);
             for r in 0..NX {
                 x[r] += h / 6.0 * (k1x[r] + 2.0 * k2x[r] + 2.0 * k3x[r] + k4x[r]);
             }
-            for q in 0..NX * np {
-                s[q] += h / 6.0 * (k1s[q] + 2.0 * k2s[q] + 2.0 * k3s[q] + k4s[q]);
+            for r in 0..NX {
+                for q in r * np..r * np + live {
+                    s[q] += h / 6.0 * (k1s[q] + 2.0 * k2s[q] + 2.0 * k3s[q] + k4s[q]);
+                }
             }
         }
     }

@@ -79,7 +79,7 @@ pub(super) fn hessian(
             z[(NX + ui) * np + pi] += v;
         }
         z[D * np + di] = 1.0;
-        add_quadratic_form(&mut h, np, &w, &z, &mut wz);
+        add_quadratic_form(&mut h, np, setup.par.live(st.k), &w, &z, &mut wz);
         // The secant rates' own curvature in (δ_k, δ_{k+1}, d_k).
         for j in 0..2 {
             let g = dk * w[NX + su::CHI + j][D];
@@ -109,26 +109,34 @@ pub(super) fn hessian(
     h
 }
 
-/// H += Zᵀ·W·Z (Z: NV rows of P; `wz` scratch of the same size).
-fn add_quadratic_form(h: &mut [f64], np: usize, w: &[[f64; NV]; NV], z: &[f64], wz: &mut [f64]) {
-    wz.iter_mut().for_each(|v| *v = 0.0);
+/// H += Zᵀ·W·Z (Z: NV rows of P, zero past column `live`; `wz` scratch of
+/// the same size).
+fn add_quadratic_form(
+    h: &mut [f64],
+    np: usize,
+    live: usize,
+    w: &[[f64; NV]; NV],
+    z: &[f64],
+    wz: &mut [f64],
+) {
     for a in 0..NV {
-        let out = &mut wz[a * np..(a + 1) * np];
+        let out = &mut wz[a * np..a * np + live];
+        out.fill(0.0);
         for b in 0..NV {
             let wab = w[a][b];
             if wab != 0.0 {
-                for (o, v) in out.iter_mut().zip(&z[b * np..(b + 1) * np]) {
+                for (o, v) in out.iter_mut().zip(&z[b * np..b * np + live]) {
                     *o += wab * v;
                 }
             }
         }
     }
     for a in 0..NV {
-        let (za, wza) = (&z[a * np..(a + 1) * np], &wz[a * np..(a + 1) * np]);
-        for i in 0..np {
+        let (za, wza) = (&z[a * np..a * np + live], &wz[a * np..a * np + live]);
+        for i in 0..live {
             let zi = za[i];
             if zi != 0.0 {
-                let row = &mut h[i * np..(i + 1) * np];
+                let row = &mut h[i * np..i * np + live];
                 for (o, v) in row.iter_mut().zip(wza) {
                     *o += zi * v;
                 }
