@@ -35,7 +35,9 @@
 //! interval's count of steps fixed from the raw mesh with room to grow by
 //! half) in each interval's normalized time σ (dx/dσ = d_k·f), with its exact sensitivities
 //! ∂x/∂p by the variational equations (f's Jacobian from
-//! [`six::jacobian`]). Each iteration solves a QP ([`crate::polish::qp`]):
+//! [`six::jacobian`], in closed form), condensed by interval (`Local`:
+//! on interval k the flight reads p only through x_k and the few
+//! parameters of its own controls). Each iteration solves a QP ([`crate::polish::qp`]):
 //! the linearized mass gain, the linearized landing with penalized slacks,
 //! the control faces and the linearized ground and dry mass, and a proximal
 //! term ε‖Δp̂‖² that grows on a poor step (an exact-penalty merit judges
@@ -312,129 +314,229 @@ fn control_partials(
     }
 }
 
-/// (dx/dσ, dS/dσ) at (x, S) on interval k at fraction a = σ of it, whose
-/// duration is d_k: dx/dσ = d_k·f, dS/dσ = d_k·(f_x·S + f_u·∂u/∂p) + f ⊗
-/// e_{d_k}. S and dS/dσ are NX rows of
-/// P, row-major; dS/ds is written into `ds`.
+/// The most parameters that one node interval's controls read: T_k,
+/// T_{k+1}, δ_k and δ_{k+1} (two each), and d_k.
+const MAX_LOCAL: usize = 7;
+/// The columns of an interval's local sensitivities ∂/∂(x_k, p_local).
+const NT: usize = NX + MAX_LOCAL;
+
+/// The parameters that node interval k reads, p_local (slots past `len`
+/// unused): the shot's sensitivities on the interval are taken against
+/// (x_k, p_local) and mapped to p once at its end (module docs of
+/// [`shoot_visiting`]).
+#[derive(Debug, Clone, Copy)]
+struct Local {
+    params: [usize; MAX_LOCAL],
+    len: usize,
+}
+
+impl Local {
+    fn new(par: Params, k: usize) -> Self {
+        let mut l = Local {
+            params: [0; MAX_LOCAL],
+            len: 0,
+        };
+        let mut push = |i: usize| {
+            l.params[l.len] = i;
+            l.len += 1;
+        };
+        push(par.thrust(k));
+        if k + 1 < par.n {
+            push(par.thrust(k + 1));
+        }
+        for j in 0..2 {
+            push(par.delta(j, k + 1));
+            if k >= 1 {
+                push(par.delta(j, k));
+            }
+        }
+        push(par.duration(k));
+        l
+    }
+
+    /// The local column (NX + slot) of parameter i, one that the interval
+    /// reads ([`control_partials`] names no other).
+    fn column(&self, i: usize) -> usize {
+        let slot = self.params[..self.len].iter().position(|&q| q == i);
+        NX + slot.expect("the interval's controls read only its local parameters")
+    }
+
+    /// Row r of ∂x/∂p from the local sensitivities T (NX × NT) and S_k
+    /// (NX rows of P, zero past `live`): Σ_m T_rm·S_k,m + Σ_j T_r,NX+j·e_pj.
+    fn globalize(&self, t: &[f64], r: usize, s: &[f64], np: usize, live: usize, out: &mut [f64]) {
+        out.fill(0.0);
+        let row = &t[r * NT..(r + 1) * NT];
+        for m in 0..NX {
+            if row[m] != 0.0 {
+                for (o, v) in out[..live].iter_mut().zip(&s[m * np..m * np + live]) {
+                    *o += row[m] * v;
+                }
+            }
+        }
+        for j in 0..self.len {
+            out[self.params[j]] += row[NX + j];
+        }
+    }
+}
+
+/// (dx/dσ, dT/dσ) at (x, T) on interval k at fraction a = σ of it, whose
+/// duration is d_k: dx/dσ = d_k·f, dT/dσ = d_k·(f_x·T + f_u·∂u/∂p_local) +
+/// f ⊗ e_{d_k}. T and dT/dσ are NX rows of NT, row-major; dT/dσ is written
+/// into `dt`.
 #[allow(clippy::too_many_arguments)] // The stage, its place and its output.
 fn derivative(
     setup: &Setup,
     c: &Controls6,
-    k: usize,
-    a: f64,
+    (k, a): (usize, f64),
+    local: &Local,
     x: &[f64; NX],
-    s: &[f64],
+    t: &[f64],
     partials: &mut Vec<(usize, usize, f64)>,
-    ds: &mut [f64],
+    dt: &mut [f64],
 ) -> [f64; NX] {
     let u = c.at_fraction(k, a);
     let (f, jac) = six::jacobian(setup.model, x, &u);
     control_partials(setup, c, k, a, partials);
-    let (np, live) = (setup.par.len(), setup.par.live(k));
+    for q in partials.iter_mut() {
+        q.1 = local.column(q.1);
+    }
     let dk = c.interval_s(k);
+    let duration = local.column(setup.par.duration(k));
     for r in 0..NX {
-        // The columns past `live` are zero in S and stay so (`live` grows
-        // with k).
-        let row = &mut ds[r * np..r * np + live];
+        let row = &mut dt[r * NT..(r + 1) * NT];
         row.fill(0.0);
         for m in 0..NX {
             let j = jac[r][m];
             if j != 0.0 {
-                for (o, v) in row.iter_mut().zip(&s[m * np..m * np + live]) {
+                for (o, v) in row.iter_mut().zip(&t[m * NT..(m + 1) * NT]) {
                     *o += j * v;
                 }
             }
         }
-        for &(ui, pi, v) in partials.iter() {
-            row[pi] += jac[r][NX + ui] * v;
+        for &(ui, col, v) in partials.iter() {
+            row[col] += jac[r][NX + ui] * v;
         }
         for o in row.iter_mut() {
             *o *= dk;
         }
-        row[setup.par.duration(k)] += f[r];
+        row[duration] += f[r];
     }
     std::array::from_fn(|r| dk * f[r])
 }
 
 /// One RK4 stage of a shot, as [`shoot_visiting`] shows it: node interval
-/// k, the fraction a of it, the stage's state Y and its sensitivities
-/// ∂Y/∂p (NX rows of P, row-major).
+/// k, the fraction a of it, the stage's state Y and its local
+/// sensitivities ∂Y/∂(x_k, p_local) (NX rows of NT, row-major).
 struct Stage<'a> {
     k: usize,
     a: f64,
     y: &'a [f64; NX],
-    dy: &'a [f64],
+    t: &'a [f64],
+    local: &'a Local,
+}
+
+/// What a shot shows as it goes ([`shoot_visiting`]).
+trait Visit {
+    /// Each RK4 stage, in order (four per step, the steps in time).
+    fn stage(&mut self, st: &Stage);
+    /// The end of node interval k, with S_k = ∂x_k/∂p at its start (NX
+    /// rows of P, zero past `Params::live(k)`).
+    fn interval(&mut self, _k: usize, _s: &[f64], _local: &Local) {}
+}
+
+impl<F: FnMut(&Stage)> Visit for F {
+    fn stage(&mut self, st: &Stage) {
+        self(st)
+    }
 }
 
 /// The shot of the controls `p` (module docs).
 fn shoot(setup: &Setup, p: &[f64]) -> Shot {
-    shoot_visiting(setup, p, &mut |_| {})
+    shoot_visiting(setup, p, &mut |_: &Stage| {})
 }
 
-/// [`shoot`], showing `visit` every RK4 stage in order (four per step, the
-/// steps in time). The sensitivities live in flat buffers allocated once
-/// per shot.
-fn shoot_visiting(setup: &Setup, p: &[f64], visit: &mut dyn FnMut(&Stage)) -> Shot {
+/// [`shoot`], showing `visit` every RK4 stage and every interval's end.
+///
+/// The sensitivities are condensed by interval: on interval k the flight
+/// depends on p only through its start x_k and the few parameters that
+/// its controls read (p_local, [`Local`]), so RK4 carries T = ∂x/∂(x_k,
+/// p_local) (NX × NT) and, at the interval's end, S_{k+1} = T_x·S_k +
+/// T_p·E_local. The step points' altitude rows are mapped the same way.
+/// Carrying ∂x/∂p itself cost NX × P per stage, P = 4N.
+fn shoot_visiting(setup: &Setup, p: &[f64], visit: &mut dyn Visit) -> Shot {
     let c = setup.controls(p);
     let np = setup.par.len();
     let mut x = setup.x0;
     let mut s = vec![0.0; NX * np];
+    let mut s_next = vec![0.0; NX * np];
     let mut partials = Vec::with_capacity(8);
     let (mut z, mut d_z) = (Vec::new(), Vec::new());
-    // The stages' dS/ds, and a stage's S.
-    let mut ks: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; NX * np]);
-    let mut sy = vec![0.0; NX * np];
+    let mut t = vec![0.0; NX * NT];
+    // The stages' dT/dσ, and a stage's T.
+    let mut ks: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; NX * NT]);
+    let mut ty = vec![0.0; NX * NT];
     let axpy = |x: &[f64; NX], k: &[f64; NX], h: f64| -> [f64; NX] {
         std::array::from_fn(|i| x[i] + h * k[i])
     };
-    // out = s + h·k on the first `live` columns of each of the NX rows.
-    let saxpy = |out: &mut [f64], s: &[f64], k: &[f64], h: f64, live: usize| {
-        for r in 0..NX {
-            let span = r * np..r * np + live;
-            for ((o, a), b) in out[span.clone()]
-                .iter_mut()
-                .zip(&s[span.clone()])
-                .zip(&k[span])
-            {
-                *o = a + h * b;
-            }
+    let saxpy = |out: &mut [f64], s: &[f64], k: &[f64], h: f64| {
+        for ((o, a), b) in out.iter_mut().zip(s).zip(k) {
+            *o = a + h * b;
         }
     };
     for k in 0..setup.par.n {
-        let (m, live) = (setup.substeps[k], setup.par.live(k));
+        let (m, live, local) = (
+            setup.substeps[k],
+            setup.par.live(k),
+            Local::new(setup.par, k),
+        );
+        t.fill(0.0);
+        for r in 0..NX {
+            t[r * NT + r] = 1.0;
+        }
         // σ ∈ [0, 1] on each interval.
         let h = 1.0 / m as f64;
         for i in 0..m {
             if k > 0 || i > 0 {
                 z.push(x[sx::Z]);
-                d_z.push(s[sx::Z * np..(sx::Z + 1) * np].to_vec());
+                let mut row = vec![0.0; np];
+                local.globalize(&t, sx::Z, &s, np, live, &mut row);
+                d_z.push(row);
             }
             let a0 = i as f64 / m as f64;
             let (a1, a2) = (a0 + 0.5 / m as f64, a0 + 1.0 / m as f64);
             let [k1s, k2s, k3s, k4s] = &mut ks;
-            let mut stage = |a: f64, y: &[f64; NX], dy: &[f64], out: &mut [f64]| {
-                visit(&Stage { k, a, y, dy });
-                derivative(setup, &c, k, a, y, dy, &mut partials, out)
+            let mut stage = |a: f64, y: &[f64; NX], ty: &[f64], out: &mut [f64]| {
+                visit.stage(&Stage {
+                    k,
+                    a,
+                    y,
+                    t: ty,
+                    local: &local,
+                });
+                derivative(setup, &c, (k, a), &local, y, ty, &mut partials, out)
             };
-            let k1x = stage(a0, &x, &s, k1s);
+            let k1x = stage(a0, &x, &t, k1s);
             let y2 = axpy(&x, &k1x, 0.5 * h);
-            saxpy(&mut sy, &s, k1s, 0.5 * h, live);
-            let k2x = stage(a1, &y2, &sy, k2s);
+            saxpy(&mut ty, &t, k1s, 0.5 * h);
+            let k2x = stage(a1, &y2, &ty, k2s);
             let y3 = axpy(&x, &k2x, 0.5 * h);
-            saxpy(&mut sy, &s, k2s, 0.5 * h, live);
-            let k3x = stage(a1, &y3, &sy, k3s);
+            saxpy(&mut ty, &t, k2s, 0.5 * h);
+            let k3x = stage(a1, &y3, &ty, k3s);
             let y4 = axpy(&x, &k3x, h);
-            saxpy(&mut sy, &s, k3s, h, live);
-            let k4x = stage(a2, &y4, &sy, k4s);
+            saxpy(&mut ty, &t, k3s, h);
+            let k4x = stage(a2, &y4, &ty, k4s);
             for r in 0..NX {
                 x[r] += h / 6.0 * (k1x[r] + 2.0 * k2x[r] + 2.0 * k3x[r] + k4x[r]);
             }
-            for r in 0..NX {
-                for q in r * np..r * np + live {
-                    s[q] += h / 6.0 * (k1s[q] + 2.0 * k2s[q] + 2.0 * k3s[q] + k4s[q]);
-                }
+            for q in 0..NX * NT {
+                t[q] += h / 6.0 * (k1s[q] + 2.0 * k2s[q] + 2.0 * k3s[q] + k4s[q]);
             }
         }
+        visit.interval(k, &s, &local);
+        for r in 0..NX {
+            local.globalize(&t, r, &s, np, live, &mut s_next[r * np..(r + 1) * np]);
+        }
+        std::mem::swap(&mut s, &mut s_next);
     }
     Shot {
         end: x,

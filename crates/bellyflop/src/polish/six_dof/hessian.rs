@@ -21,11 +21,15 @@
 //!
 //! Z_i = ∂(Y_i, u_i, d_k)/∂p the stage's forward sensitivities, and the last
 //! term the curvature of the secant rate χ_j = Δδ_j/d_k in p, weighted
-//! by g_ij = d_k·κ_iᵀ ∂f/∂χ_j (u's thrust is linear in p). The weighted
+//! by g_ij = d_k·κ_iᵀ ∂f/∂χ_j (u's thrust is linear in p). On node
+//! interval k, Z_i = Z_loc,i·E_k with Z_loc,i the stage's sensitivities in
+//! (x_k, p_local) (the shot's condensed ones) and E_k = ∂(x_k,
+//! p_local)/∂p, so the sum is taken in (x_k, p_local) over the interval's
+//! stages and mapped once at its end (`Pass`). The weighted
 //! second derivatives of f come from the model's term-by-term
 //! [`Differentiable::point_derivatives`].
 
-use super::{control_partials, shoot_visiting, Setup, Shot, Stage};
+use super::{control_partials, shoot_visiting, Controls6, Local, Setup, Shot, Stage, Visit, NT};
 use crate::collocation::derivatives::{Differentiable, PointDerivatives};
 use crate::problem::six_dof::{self as six, su, NU, NX};
 
@@ -43,60 +47,22 @@ pub(super) fn hessian(
 ) -> Vec<f64> {
     let kappa = stage_multipliers(setup, p, lambda_f, ground);
     let np = setup.par.len();
-    let c = setup.controls(p);
-    let mut h = vec![0.0; np * np];
-    let mut at = 0;
-    let mut partials = Vec::with_capacity(8);
-    let mut point = PointDerivatives::<NX, { NX + NU }>::default();
-    let ones = [1.0; NX + NU];
-    let mut z = vec![0.0; NV * np];
-    let mut wz = vec![0.0; NV * np];
-    let _: Shot = shoot_visiting(setup, p, &mut |st: &Stage| {
-        let kap = &kappa[at];
-        at += 1;
-        let u = c.at_fraction(st.k, st.a);
-        let (dk, di) = (c.interval_s(st.k), setup.par.duration(st.k));
-        let input: [f64; NX + NU] =
-            std::array::from_fn(|i| if i < NX { st.y[i] } else { u[i - NX] });
-        setup
-            .model
-            .point_derivatives::<NX, { NX + NU }>(&input, &ones, kap, &[], &mut point);
-        // W = ∇²_{(Y, u, d_k)} [d_k·κᵀf].
-        let mut w = [[0.0; NV]; NV];
-        for a in 0..NX + NU {
-            for b in 0..NX + NU {
-                w[a][b] = dk * point.hess[a][b];
-            }
-            let g: f64 = (0..NX).map(|r| kap[r] * point.jac[r][a]).sum();
-            w[a][D] = g;
-            w[D][a] = g;
-        }
-        // Z = ∂(Y, u, d_k)/∂p.
-        z.iter_mut().for_each(|v| *v = 0.0);
-        z[..NX * np].copy_from_slice(st.dy);
-        control_partials(setup, &c, st.k, st.a, &mut partials);
-        for &(ui, pi, v) in &partials {
-            z[(NX + ui) * np + pi] += v;
-        }
-        z[D * np + di] = 1.0;
-        add_quadratic_form(&mut h, np, setup.par.live(st.k), &w, &z, &mut wz);
-        // The secant rates' own curvature in (δ_k, δ_{k+1}, d_k).
-        for j in 0..2 {
-            let g = dk * w[NX + su::CHI + j][D];
-            let (ti, chi) = (di, u[su::CHI + j]);
-            let mut add = |a: usize, b: usize, v: f64| {
-                h[a * np + b] += v;
-                if a != b {
-                    h[b * np + a] += v;
-                }
-            };
-            add(setup.par.delta(j, st.k + 1), ti, -g / (dk * dk));
-            if st.k >= 1 {
-                add(setup.par.delta(j, st.k), ti, g / (dk * dk));
-            }
-            add(ti, ti, g * 2.0 * chi / (dk * dk));
-        }
-    });
+    let mut pass = Pass {
+        setup,
+        c: setup.controls(p),
+        kappa,
+        at: 0,
+        partials: Vec::with_capacity(8),
+        point: PointDerivatives::default(),
+        z: vec![0.0; NV * NT],
+        wz: vec![0.0; NV * NT],
+        local: vec![0.0; NT * NT],
+        e: vec![0.0; NT * np],
+        we: vec![0.0; NT * np],
+        h: vec![0.0; np * np],
+    };
+    let _: Shot = shoot_visiting(setup, p, &mut pass);
+    let mut h = pass.h;
     // Symmetric to the last bit (the two triangles summed in different
     // orders differ by rounding).
     for i in 0..np {
@@ -109,20 +75,113 @@ pub(super) fn hessian(
     h
 }
 
-/// H += Zᵀ·W·Z (Z: NV rows of P, zero past column `live`; `wz` scratch of
+/// The Hessian's pass over the shot: each stage's Z_locᵀ·W·Z_loc summed
+/// over an interval in (x_k, p_local) (NT²), then mapped to p at the
+/// interval's end by E_k = ∂(x_k, p_local)/∂p: H += E_kᵀ·M_k·E_k. The
+/// stages' Z = Z_loc·E_k, so this is Σ Zᵀ·W·Z at NT² per stage, not P².
+struct Pass<'a> {
+    setup: &'a Setup<'a>,
+    c: Controls6,
+    kappa: Vec<[f64; NX]>,
+    at: usize,
+    partials: Vec<(usize, usize, f64)>,
+    point: PointDerivatives<NX, { NX + NU }>,
+    /// Z_loc = ∂(Y, u, d_k)/∂(x_k, p_local) (NV rows of NT), and W·Z_loc.
+    z: Vec<f64>,
+    wz: Vec<f64>,
+    /// M_k (NT²).
+    local: Vec<f64>,
+    /// E_k (NT rows of P), and M_k·E_k.
+    e: Vec<f64>,
+    we: Vec<f64>,
+    h: Vec<f64>,
+}
+
+impl Visit for Pass<'_> {
+    fn stage(&mut self, st: &Stage) {
+        let (setup, c) = (self.setup, &self.c);
+        let kap = &self.kappa[self.at];
+        self.at += 1;
+        let u = c.at_fraction(st.k, st.a);
+        let dk = c.interval_s(st.k);
+        let di = st.local.column(setup.par.duration(st.k));
+        let input: [f64; NX + NU] =
+            std::array::from_fn(|i| if i < NX { st.y[i] } else { u[i - NX] });
+        let point = &mut self.point;
+        setup
+            .model
+            .point_derivatives::<NX, { NX + NU }>(&input, &[1.0; NX + NU], kap, &[], point);
+        // W = ∇²_{(Y, u, d_k)} [d_k·κᵀf].
+        let mut w = [[0.0; NV]; NV];
+        for a in 0..NX + NU {
+            for b in 0..NX + NU {
+                w[a][b] = dk * point.hess[a][b];
+            }
+            let g: f64 = (0..NX).map(|r| kap[r] * point.jac[r][a]).sum();
+            w[a][D] = g;
+            w[D][a] = g;
+        }
+        // Z_loc.
+        self.z.fill(0.0);
+        self.z[..NX * NT].copy_from_slice(st.t);
+        control_partials(setup, c, st.k, st.a, &mut self.partials);
+        for &(ui, pi, v) in &self.partials {
+            self.z[(NX + ui) * NT + st.local.column(pi)] += v;
+        }
+        self.z[D * NT + di] = 1.0;
+        add_quadratic_form(&mut self.local, NT, NT, &w, &self.z, &mut self.wz);
+        // The secant rates' own curvature in (δ_k, δ_{k+1}, d_k).
+        for j in 0..2 {
+            let g = dk * w[NX + su::CHI + j][D];
+            let chi = u[su::CHI + j];
+            let m = &mut self.local;
+            let mut add = |a: usize, b: usize, v: f64| {
+                m[a * NT + b] += v;
+                if a != b {
+                    m[b * NT + a] += v;
+                }
+            };
+            add(
+                st.local.column(setup.par.delta(j, st.k + 1)),
+                di,
+                -g / (dk * dk),
+            );
+            if st.k >= 1 {
+                add(st.local.column(setup.par.delta(j, st.k)), di, g / (dk * dk));
+            }
+            add(di, di, g * 2.0 * chi / (dk * dk));
+        }
+    }
+
+    fn interval(&mut self, k: usize, s: &[f64], local: &Local) {
+        let np = self.setup.par.len();
+        let live = self.setup.par.live(k);
+        self.e.fill(0.0);
+        self.e[..NX * np].copy_from_slice(s);
+        for j in 0..local.len {
+            self.e[(NX + j) * np + local.params[j]] = 1.0;
+        }
+        let m: [[f64; NT]; NT] =
+            std::array::from_fn(|a| std::array::from_fn(|b| self.local[a * NT + b]));
+        add_quadratic_form(&mut self.h, np, live, &m, &self.e, &mut self.we);
+        self.local.fill(0.0);
+    }
+}
+
+/// H += Zᵀ·W·Z (Z: R rows of P, zero past column `live`; `wz` scratch of
 /// the same size).
-fn add_quadratic_form(
+fn add_quadratic_form<const R: usize>(
     h: &mut [f64],
     np: usize,
     live: usize,
-    w: &[[f64; NV]; NV],
+    w: &[[f64; R]; R],
     z: &[f64],
     wz: &mut [f64],
 ) {
-    for a in 0..NV {
+    for a in 0..R {
         let out = &mut wz[a * np..a * np + live];
         out.fill(0.0);
-        for b in 0..NV {
+        for b in 0..R {
             let wab = w[a][b];
             if wab != 0.0 {
                 for (o, v) in out.iter_mut().zip(&z[b * np..b * np + live]) {
@@ -131,7 +190,7 @@ fn add_quadratic_form(
             }
         }
     }
-    for a in 0..NV {
+    for a in 0..R {
         let (za, wza) = (&z[a * np..a * np + live], &wz[a * np..a * np + live]);
         for i in 0..live {
             let zi = za[i];
