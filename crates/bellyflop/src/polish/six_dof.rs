@@ -442,11 +442,29 @@ trait Visit {
     /// The end of node interval k, with S_k = ∂x_k/∂p at its start (NX
     /// rows of P, zero past `Params::live(k)`).
     fn interval(&mut self, _k: usize, _s: &[f64], _local: &Local) {}
+    /// Whether the shot is to carry its sensitivities; without them it
+    /// flies the same states (the same bits) at a fraction of the cost,
+    /// and shows each stage an empty `t` and the intervals S_k = 0.
+    fn sensitivities(&self) -> bool {
+        true
+    }
 }
 
 impl<F: FnMut(&Stage)> Visit for F {
     fn stage(&mut self, st: &Stage) {
         self(st)
+    }
+}
+
+/// A visitor that reads the stages' states only ([`Visit::sensitivities`]).
+struct StatesOnly<F>(F);
+
+impl<F: FnMut(&Stage)> Visit for StatesOnly<F> {
+    fn stage(&mut self, st: &Stage) {
+        (self.0)(st)
+    }
+    fn sensitivities(&self) -> bool {
+        false
     }
 }
 
@@ -464,6 +482,7 @@ fn shoot(setup: &Setup, p: &[f64]) -> Shot {
 /// T_p·E_local. The step points' altitude rows are mapped the same way.
 /// Carrying ∂x/∂p itself cost NX × P per stage, P = 4N.
 fn shoot_visiting(setup: &Setup, p: &[f64], visit: &mut dyn Visit) -> Shot {
+    let carry = visit.sensitivities();
     let c = setup.controls(p);
     let np = setup.par.len();
     let mut x = setup.x0;
@@ -496,7 +515,7 @@ fn shoot_visiting(setup: &Setup, p: &[f64], visit: &mut dyn Visit) -> Shot {
         // σ ∈ [0, 1] on each interval.
         let h = 1.0 / m as f64;
         for i in 0..m {
-            if k > 0 || i > 0 {
+            if (k > 0 || i > 0) && carry {
                 z.push(x[sx::Z]);
                 let mut row = vec![0.0; np];
                 local.globalize(&t, sx::Z, &s, np, live, &mut row);
@@ -510,29 +529,48 @@ fn shoot_visiting(setup: &Setup, p: &[f64], visit: &mut dyn Visit) -> Shot {
                     k,
                     a,
                     y,
-                    t: ty,
+                    t: if carry { ty } else { &[] },
                     local: &local,
                 });
-                derivative(setup, &c, (k, a), &local, y, ty, &mut partials, out)
+                if carry {
+                    derivative(setup, &c, (k, a), &local, y, ty, &mut partials, out)
+                } else {
+                    let (f, dk) = (
+                        six::rhs(setup.model, y, &c.at_fraction(k, a)),
+                        c.interval_s(k),
+                    );
+                    f.map(|v| dk * v)
+                }
             };
             let k1x = stage(a0, &x, &t, k1s);
             let y2 = axpy(&x, &k1x, 0.5 * h);
-            saxpy(&mut ty, &t, k1s, 0.5 * h);
+            if carry {
+                saxpy(&mut ty, &t, k1s, 0.5 * h);
+            }
             let k2x = stage(a1, &y2, &ty, k2s);
             let y3 = axpy(&x, &k2x, 0.5 * h);
-            saxpy(&mut ty, &t, k2s, 0.5 * h);
+            if carry {
+                saxpy(&mut ty, &t, k2s, 0.5 * h);
+            }
             let k3x = stage(a1, &y3, &ty, k3s);
             let y4 = axpy(&x, &k3x, h);
-            saxpy(&mut ty, &t, k3s, h);
+            if carry {
+                saxpy(&mut ty, &t, k3s, h);
+            }
             let k4x = stage(a2, &y4, &ty, k4s);
             for r in 0..NX {
                 x[r] += h / 6.0 * (k1x[r] + 2.0 * k2x[r] + 2.0 * k3x[r] + k4x[r]);
             }
-            for q in 0..NX * NT {
-                t[q] += h / 6.0 * (k1s[q] + 2.0 * k2s[q] + 2.0 * k3s[q] + k4s[q]);
+            if carry {
+                for q in 0..NX * NT {
+                    t[q] += h / 6.0 * (k1s[q] + 2.0 * k2s[q] + 2.0 * k3s[q] + k4s[q]);
+                }
             }
         }
         visit.interval(k, &s, &local);
+        if !carry {
+            continue;
+        }
         for r in 0..NX {
             local.globalize(&t, r, &s, np, live, &mut s_next[r * np..(r + 1) * np]);
         }

@@ -29,7 +29,9 @@
 //! second derivatives of f come from the model's term-by-term
 //! [`Differentiable::point_derivatives`].
 
-use super::{control_partials, shoot_visiting, Controls6, Local, Setup, Shot, Stage, Visit, NT};
+use super::{
+    control_partials, shoot_visiting, Controls6, Local, Setup, Shot, Stage, StatesOnly, Visit, NT,
+};
 use crate::collocation::derivatives::{Differentiable, PointDerivatives};
 use crate::problem::six_dof::{self as six, su, NU, NX};
 
@@ -205,7 +207,8 @@ fn add_quadratic_form<const R: usize>(
 }
 
 /// κ_i of every stage in the order [`shoot_visiting`] shows them (module
-/// docs), by one pass of the shot for the stage states and one backwards.
+/// docs), by one pass of the shot for the stage states (without
+/// sensitivities) and one backwards.
 fn stage_multipliers(
     setup: &Setup,
     p: &[f64],
@@ -215,7 +218,7 @@ fn stage_multipliers(
     let c = setup.controls(p);
     // G_i = d_k·∂f/∂x at each stage.
     let mut g: Vec<[[f64; NX]; NX]> = Vec::new();
-    shoot_visiting(setup, p, &mut |st: &Stage| {
+    let mut states = StatesOnly(|st: &Stage| {
         let u = c.at_fraction(st.k, st.a);
         let (_, jac) = six::jacobian(setup.model, st.y, &u);
         let dk = c.interval_s(st.k);
@@ -223,6 +226,7 @@ fn stage_multipliers(
             std::array::from_fn(|m| dk * jac[r][m])
         }));
     });
+    shoot_visiting(setup, p, &mut states);
     let steps: Vec<f64> = (0..setup.par.n)
         .flat_map(|k| {
             let m = setup.substeps[k];
