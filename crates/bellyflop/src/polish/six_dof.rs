@@ -131,6 +131,15 @@ const GROWTH: f64 = 1.5;
 /// The ground rows are held where the shot is within this of the pad \[m\].
 const GROUND_WINDOW_M: f64 = 200.0;
 
+/// The QP's ground rows ask for this much clearance at the step points
+/// \[m\], so that between them (and the curvature of z(p) along a step) the
+/// flown path does not dip below the pad. Without it one of 100 seeded
+/// states (seed 38, box3d70) dipped 2.8e-5 m below the pad between step
+/// points; with it the lowest point of the 100 is 1.8e-6 m below, the
+/// landing's own miss. Counts, times and masses beyond noise unchanged
+/// (at most 0.3 kg, on 130 states of seeds 38 and 7).
+const GROUND_MARGIN_M: f64 = 1e-3;
+
 /// The controls as flown (module docs), published with a 6-DoF answer.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Controls6 {
@@ -706,7 +715,7 @@ fn inequality_rows(
                 .map(|(i, v)| (i, -v * sc[i]))
                 .collect();
             cols.push((ground_slack, -1.0));
-            rows.push((cols, z - setup.target.z_m));
+            rows.push((cols, z - setup.target.z_m - GROUND_MARGIN_M));
         }
     }
     let mut cols: Vec<(usize, f64)> = shot.d_end[sx::M]
