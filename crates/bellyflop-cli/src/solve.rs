@@ -4,6 +4,7 @@ use std::process::ExitCode;
 
 use bellyflop::input::scenario::ModelKind;
 use bellyflop::method::observer::Iteration;
+use bellyflop::output::report;
 use bellyflop::solution::{DirectIteration, IterationRecord};
 use bellyflop::{Case, Scenario, Solution, SolverSettings};
 
@@ -40,16 +41,14 @@ pub fn run(args: SolveArgs) -> ExitCode {
             }
         };
     let propagation = landing::propagate(&scenario, &solution, args.interpolation);
-    // One JSON object: printed by --json, and written as solution.json by --out.
-    let mut v = solution.to_json();
+    // One JSON object: printed by --json, and written as solution.json by
+    // --out; the library builds it, as for Python's `Solution.to_dict()`.
+    let mut v = report::solve_json(&scenario, &solution, &propagation, &warnings);
     if args.repeat > 1 {
         v["repeat"] = args.repeat.into();
         v["solve_time_min_ms"] = times_ms[0].into();
         v["solve_time_max_ms"] = times_ms[times_ms.len() - 1].into();
     }
-    landing::add_to_json(&mut v, &propagation);
-    bellyflop::output::report::add_mesh_json(&mut v, &scenario, &solution);
-    load::add_warnings(&mut v, &warnings);
     if args.json {
         outln!("{v}");
     } else {

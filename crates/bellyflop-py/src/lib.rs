@@ -591,7 +591,7 @@ fn solve(
         let start = Instant::now();
         let solution = s.solve(&mut bellyflop::method::observer::Silent)?;
         let propagation = report::propagate(&s.scenario, &solution, interpolation);
-        let v = report::solve_json(&s.scenario, &solution, &propagation);
+        let v = report::solve_json(&s.scenario, &solution, &propagation, &s.warnings);
         let core_ms = start.elapsed().as_secs_f64() * 1e3;
         // After the clock: the viewer's data is not part of the solve.
         let flown = propagation.as_ref().ok();

@@ -92,9 +92,7 @@ pub fn solve(py: Python<'_>, case: Case, overrides: Overrides) -> PyResult<SixDo
         );
         let mut v = sol.to_json();
         // As the CLI adds them (only when there are any).
-        if !s.warnings.is_empty() {
-            v["warnings"] = s.warnings.clone().into();
-        }
+        bellyflop::output::report::add_warnings(&mut v, &s.warnings);
         (v, start.elapsed().as_secs_f64() * 1e3)
     })?;
     Ok(SixDofSolution { value, core_ms })
