@@ -5,8 +5,11 @@
 //! the model) and the plots `path` and `histories` as SVG and PNG
 //! ([`crate::plot::six_dof`]: the path in the x–z, y–z and top views, and
 //! the thrust, gimbal, attitude, body-rate, mass and speed histories). The
-//! convergence plot and the viewer are planar only for now.
+//! convergence plot and the viewer are planar only for now. `--repeat R`
+//! solves R times and reports the median solve time, as for a planar
+//! scenario ([`crate::repeat`]).
 
+use std::convert::Infallible;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -18,7 +21,7 @@ use bellyflop::{Scenario, SolverSettings};
 
 use crate::args::SolveArgs;
 use crate::error::OutputError;
-use crate::{exit, files, load, output, plot};
+use crate::{exit, files, load, output, plot, repeat};
 
 /// Solve the 6-DoF `scenario` (module docs); the exit code is the status's.
 pub fn run(
@@ -49,18 +52,23 @@ pub fn run(
             }
         );
     }
-    let sol = solve(
-        scenario,
-        start_state(&scenario.initial),
-        settings,
-        &mut Silent,
-    );
+    let x0 = start_state(&scenario.initial);
+    let (mut sol, times_ms) = match repeat::repeated(
+        args.repeat,
+        |_| Ok::<_, Infallible>(solve(scenario, x0, settings, &mut Silent)),
+        |s| (s.status, s.final_mass_kg, s.solve_time_ms),
+    ) {
+        Ok(solved) => solved,
+        Err(never) => match never {},
+    };
+    sol.solve_time_ms = repeat::median(&times_ms);
     let mut v = sol.to_json();
+    repeat::add_json(&mut v, args.repeat, &times_ms);
     load::add_warnings(&mut v, warnings);
     if args.json {
         outln!("{v}");
     } else {
-        print_summary(&sol);
+        print_summary(&sol, &times_ms);
     }
     if let Some(dir) = &args.out {
         let written = write(dir, scenario, &sol, &v);
@@ -89,8 +97,9 @@ fn write(
     Ok(written)
 }
 
-/// The human summary on stdout.
-fn print_summary(sol: &SixDofSolution) {
+/// The human summary on stdout; `times_ms` are the sorted solve times of
+/// `--repeat`.
+fn print_summary(sol: &SixDofSolution, times_ms: &[f64]) {
     outln!("model:          6dof");
     outln!("status:         {}", sol.status.as_str());
     if !sol.message.is_empty() {
@@ -106,7 +115,10 @@ fn print_summary(sol: &SixDofSolution) {
         Some(p) => outln!("iterations:     {} (direct), {p} (polish)", sol.iterations),
         None => outln!("iterations:     {} (direct)", sol.iterations),
     }
-    outln!("solve time:     {:.1} ms", sol.solve_time_ms);
+    outln!(
+        "solve time:     {}",
+        repeat::time_text(sol.solve_time_ms, times_ms)
+    );
     if let Some(f) = &sol.flown {
         let which = if sol.controls_flown.is_some() {
             "polished"
