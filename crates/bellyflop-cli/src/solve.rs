@@ -40,7 +40,8 @@ pub fn run(args: SolveArgs) -> ExitCode {
                 return ExitCode::from(exit::BAD_INPUT);
             }
         };
-    let propagation = landing::propagate(&scenario, &solution, args.interpolation);
+    let interpolation = args.interpolation.unwrap_or_default();
+    let propagation = landing::propagate(&scenario, &solution, interpolation);
     // One JSON object: printed by --json, and written as solution.json by
     // --out; the library builds it, as for Python's `Solution.to_dict()`.
     let mut v = report::solve_json(&scenario, &solution, &propagation, &warnings);
