@@ -567,9 +567,14 @@ fn solve(
             mesh_tolerance,
         }
         .check()?;
+        // What is left of `method` and `mesh_tolerance` ("direct", 0) is
+        // what the 6-DoF solve does: they override the file's, as the
+        // CLI's flags do.
         let overrides = Overrides {
             nodes,
             intervals,
+            method: method.map(parse_method).transpose()?,
+            mesh_tolerance,
             fast,
             ..Overrides::default()
         };
