@@ -56,7 +56,8 @@ impl From<InputError> for Failure {
             InputError::Empty { .. }
             | InputError::OutOfRange { .. }
             | InputError::Inconsistent { .. }
-            | InputError::ModelUnavailable { .. } => bf_error::InvalidInput,
+            | InputError::ModelUnavailable { .. }
+            | InputError::NotApplicable { .. } => bf_error::InvalidInput,
         };
         Failure {
             code,

@@ -34,7 +34,8 @@ pub struct SolveArgs {
     /// `--nodes` does).
     #[arg(long)]
     pub intervals: Option<usize>,
-    /// Thrust-direction formulation; overrides the scenario.
+    /// Thrust-direction formulation of SCvx; overrides the scenario. Planar
+    /// only: a 6-DoF scenario refuses it.
     #[arg(long, value_parser = formulation_parser())]
     pub formulation: Option<Formulation>,
     /// Solution method: `scvx` (successive convexification, the paper's) or
@@ -44,7 +45,8 @@ pub struct SolveArgs {
     pub method: Option<Method>,
     /// Refine the mesh (hp, with breaks at the control switches) until every
     /// interval's relative error is at most TOL; overrides the scenario's
-    /// `solver.refinement.tolerance` (0: no refinement).
+    /// `solver.refinement.tolerance` (0: no refinement). Planar only: a
+    /// 6-DoF scenario refuses a tolerance other than 0.
     #[arg(long, value_name = "TOL")]
     pub mesh_tolerance: Option<f64>,
     /// The raw collocation answer, without the polish that makes its
@@ -59,9 +61,11 @@ pub struct SolveArgs {
     /// Do not print per-iteration progress on stderr.
     #[arg(long)]
     pub quiet: bool,
-    /// Interpolation of the controls when re-propagating for the landing error.
-    #[arg(long, value_enum, default_value = "pchip")]
-    pub interpolation: landing::InterpolationArg,
+    /// Interpolation of the controls when re-propagating for the landing
+    /// error: `pchip` (the default) or `linear`. Planar only: a 6-DoF
+    /// scenario refuses it.
+    #[arg(long, value_enum)]
+    pub interpolation: Option<landing::InterpolationArg>,
     /// Write trajectory.csv, solution.json, the plots (SVG and PNG) and
     /// viewer.html (the solve, to play in a browser) into DIR.
     #[arg(long, value_name = "DIR")]

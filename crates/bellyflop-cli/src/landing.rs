@@ -6,7 +6,6 @@ use bellyflop::verify::ode::IntegrationError;
 use bellyflop::verify::propagate::Propagation;
 use bellyflop::{Scenario, Solution};
 use clap::ValueEnum;
-use serde_json::Value;
 
 /// `--interpolation`: how the controls are rebuilt between nodes.
 #[derive(Clone, Copy, Debug, Default, ValueEnum)]
@@ -71,8 +70,3 @@ pub fn print_summary(p: &Result<Propagation, IntegrationError>, optimized_mass_k
 }
 
 pub use bellyflop::output::report::{landing_error_json, propagation_json};
-
-/// Add `landing_error` and `propagation` to the JSON of a solution.
-pub fn add_to_json(v: &mut Value, p: &Result<Propagation, IntegrationError>) {
-    bellyflop::output::report::add_landing_json(v, p);
-}

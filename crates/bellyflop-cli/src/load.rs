@@ -70,12 +70,8 @@ pub fn closed_loop(
 }
 
 /// The scenario's warnings as the JSON's `warnings` list, only when there
-/// are any: the JSON of a file without warnings is unchanged.
-pub fn add_warnings(v: &mut serde_json::Value, warnings: &[String]) {
-    if !warnings.is_empty() {
-        v["warnings"] = warnings.into();
-    }
-}
+/// are any: the library's, which Python's answers carry too.
+pub use bellyflop::output::report::add_warnings;
 
 /// The scenario's warnings (a guess clamped into its range), one
 /// `warning: ...` line each on stderr, whatever `--quiet` says: the answer is

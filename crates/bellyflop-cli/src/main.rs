@@ -7,7 +7,8 @@
 //! written whole or not at all), `landing` (the landing
 //! check), `args` and `load` (the flags and the scenario they select),
 //! `sample` (the dense trajectory), `plot` (every figure), `output` (the
-//! files of `solve --out`), then one module per command.
+//! files of `solve --out`), `repeat` (`solve --repeat`), then one module
+//! per command.
 
 use std::process::ExitCode;
 
@@ -25,6 +26,7 @@ mod load;
 mod montecarlo;
 mod output;
 mod plot;
+mod repeat;
 mod sample;
 mod sim;
 mod solve;

@@ -4,11 +4,12 @@ use std::process::ExitCode;
 
 use bellyflop::input::scenario::ModelKind;
 use bellyflop::method::observer::Iteration;
+use bellyflop::output::report;
 use bellyflop::solution::{DirectIteration, IterationRecord};
 use bellyflop::{Case, Scenario, Solution, SolverSettings};
 
 use crate::args::SolveArgs;
-use crate::{exit, landing, load, output};
+use crate::{exit, landing, load, output, repeat};
 
 pub fn run(args: SolveArgs) -> ExitCode {
     let Case {
@@ -39,17 +40,12 @@ pub fn run(args: SolveArgs) -> ExitCode {
                 return ExitCode::from(exit::BAD_INPUT);
             }
         };
-    let propagation = landing::propagate(&scenario, &solution, args.interpolation);
-    // One JSON object: printed by --json, and written as solution.json by --out.
-    let mut v = solution.to_json();
-    if args.repeat > 1 {
-        v["repeat"] = args.repeat.into();
-        v["solve_time_min_ms"] = times_ms[0].into();
-        v["solve_time_max_ms"] = times_ms[times_ms.len() - 1].into();
-    }
-    landing::add_to_json(&mut v, &propagation);
-    bellyflop::output::report::add_mesh_json(&mut v, &scenario, &solution);
-    load::add_warnings(&mut v, &warnings);
+    let interpolation = args.interpolation.unwrap_or_default();
+    let propagation = landing::propagate(&scenario, &solution, interpolation);
+    // One JSON object: printed by --json, and written as solution.json by
+    // --out; the library builds it, as for Python's `Solution.to_dict()`.
+    let mut v = report::solve_json(&scenario, &solution, &propagation, &warnings);
+    repeat::add_json(&mut v, args.repeat, &times_ms);
     if args.json {
         outln!("{v}");
     } else {
@@ -68,35 +64,28 @@ pub fn run(args: SolveArgs) -> ExitCode {
     ExitCode::from(solution.status.exit_code() as u8)
 }
 
-/// Solve `repeat` times (progress shown for the first run only); the last
-/// solution with the median solve time, and the sorted times. Every run must
-/// give the same answer: the solvers are deterministic, and a difference is
-/// reported on stderr.
+/// Solve `repeat` times ([`repeat::repeated`]; progress shown for the
+/// first run only): the last solution with the median solve time, and the
+/// sorted times.
 fn solve_repeated(
     scenario: &Scenario,
     settings: &SolverSettings,
     progress: &mut Progress,
     repeat: u32,
 ) -> Result<(Solution, Vec<f64>), bellyflop::InputError> {
-    let mut solution = bellyflop::solve(scenario, settings, progress)?;
-    let mut times_ms = vec![solution.solve_time_ms];
-    for _ in 1..repeat {
-        let again = bellyflop::solve(scenario, settings, &mut Progress { quiet: true })?;
-        if again.status != solution.status || again.final_mass_kg != solution.final_mass_kg {
-            errln!(
-                "warning: a repeated solve differed: {} at {} kg, then {} at {} kg",
-                solution.status.as_str(),
-                solution.final_mass_kg,
-                again.status.as_str(),
-                again.final_mass_kg
-            );
-        }
-        times_ms.push(again.solve_time_ms);
-        solution = again;
-    }
-    times_ms.sort_by(f64::total_cmp);
-    let k = times_ms.len();
-    solution.solve_time_ms = 0.5 * (times_ms[(k - 1) / 2] + times_ms[k / 2]);
+    let (mut solution, times_ms) = repeat::repeated(
+        repeat,
+        |first| {
+            let quiet = &mut Progress { quiet: true };
+            bellyflop::solve(
+                scenario,
+                settings,
+                if first { &mut *progress } else { quiet },
+            )
+        },
+        |s| (s.status, s.final_mass_kg, s.solve_time_ms),
+    )?;
+    solution.solve_time_ms = repeat::median(&times_ms);
     Ok((solution, times_ms))
 }
 
@@ -256,17 +245,10 @@ fn print_summary(scenario: &Scenario, settings: &SolverSettings, s: &Solution, t
             names.iteration
         );
     }
-    if times_ms.len() > 1 {
-        outln!(
-            "solve time    {:.1} ms (median of {} runs; min {:.1} ms, max {:.1} ms)",
-            s.solve_time_ms,
-            times_ms.len(),
-            times_ms[0],
-            times_ms[times_ms.len() - 1]
-        );
-    } else {
-        outln!("solve time    {:.1} ms", s.solve_time_ms);
-    }
+    outln!(
+        "solve time    {}",
+        repeat::time_text(s.solve_time_ms, times_ms)
+    );
     outln!(
         "checks        defect {:.1e}, virtual control {:.1e}, relaxation gap {:.1e}, thrust alignment {:.6}",
         s.checks.max_defect, s.checks.virtual_control, s.checks.relaxation_gap, s.checks.thrust_alignment_min

@@ -491,6 +491,174 @@ fn solve_solves_a_six_dof_scenario() {
     assert!(!out.join("convergence.svg").exists());
     let (code, _, stderr) = bellyflop(&["solve", "--scenario", path, "--method", "scvx"]);
     assert_eq!(code, 2, "{stderr}");
-    assert!(stderr.contains("solves only the planar model"), "{stderr}");
+    assert!(
+        stderr.contains("--method scvx does not apply to a 6-DoF scenario"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A 6-DoF scenario as `init --model 6dof` writes it, in a directory of
+/// its own named `name`, with `edit` applied to its text: the directory
+/// and the file.
+fn six_dof_file(
+    name: &str,
+    edit: impl Fn(&str) -> String,
+) -> (std::path::PathBuf, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("bellyflop-cli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("six.toml");
+    let (code, _, stderr) =
+        bellyflop(&["init", "--force", "--model", "6dof", file.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let edited = edit(&text);
+    std::fs::write(&file, edited).unwrap();
+    (dir, file)
+}
+
+/// `text` with the one line `from` replaced by `to`.
+fn replace_line(text: &str, from: &str, to: &str) -> String {
+    assert_eq!(text.lines().filter(|l| *l == from).count(), 1, "{from}");
+    text.lines()
+        .map(|l| if l == from { to } else { l })
+        .map(|l| format!("{l}\n"))
+        .collect()
+}
+
+/// `solve` on a 6-DoF scenario refuses each flag that its solve would
+/// ignore, as the Python binding refuses the same arguments: exit 2, the
+/// error naming the flag, the value given and why, before any solve and
+/// before `--out` is created.
+#[test]
+fn six_dof_solve_refuses_the_flags_it_would_ignore() {
+    let (dir, file) = six_dof_file("6dof-flags", str::to_string);
+    let path = file.to_str().unwrap();
+    let out = dir.join("out");
+    for (flag, value, why) in [
+        (
+            "--method",
+            "scvx",
+            "only the direct method solves the 6-DoF model",
+        ),
+        ("--formulation", "paper", "the planar model's SCvx's"),
+        // Even the default: the formulations are not the 6-DoF model's.
+        ("--formulation", "exact", "the planar model's SCvx's"),
+        (
+            "--interpolation",
+            "linear",
+            "not interpolated through the nodes",
+        ),
+        (
+            "--interpolation",
+            "pchip",
+            "not interpolated through the nodes",
+        ),
+        ("--mesh-tolerance", "1e-6", "does not refine its mesh"),
+    ] {
+        let args = [
+            "solve",
+            "--json",
+            "--scenario",
+            path,
+            "--out",
+            out.to_str().unwrap(),
+            flag,
+            value,
+        ];
+        let (code, stdout, stderr) = bellyflop(&args);
+        assert_eq!(code, 2, "{flag} {value}: {stderr}");
+        assert!(stdout.is_empty(), "{flag} {value}: {stdout}");
+        let named = format!(
+            "error: {flag} {value} does not apply to a 6-DoF scenario (model = \"6dof\"): "
+        );
+        assert!(
+            stderr.starts_with(&named) && stderr.contains(why),
+            "{flag} {value}: {stderr}"
+        );
+        assert!(!out.exists(), "{flag} {value} created {}", out.display());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A 6-DoF scenario's settings that its solve does not read, at a value
+/// other than their default, are refused by name (exit 2); a flag that
+/// sets them back (`--method direct`, `--mesh-tolerance 0`) is honoured,
+/// and so is `--repeat`.
+#[test]
+fn six_dof_solve_refuses_the_settings_it_would_ignore() {
+    let cases = [
+        (
+            "formulation = \"exact\"",
+            "formulation = \"vector\"",
+            "solver.formulation = \"vector\"",
+        ),
+        (
+            "tolerance = 0.0",
+            "tolerance = 1e-4",
+            "solver.refinement.tolerance = 0.0001",
+        ),
+        (
+            "method = \"direct\"",
+            "method = \"scvx\"",
+            "solver.method = \"scvx\"",
+        ),
+        (
+            "polish_repairs = 3",
+            "polish_repairs = 0",
+            "solver.polish_repairs = 0",
+        ),
+        (
+            "max_iterations = 100",
+            "max_iterations = 50",
+            "solver.max_iterations = 50",
+        ),
+    ];
+    for (from, to, named) in cases {
+        let (dir, file) = six_dof_file("6dof-settings", |t| replace_line(t, from, to));
+        let (code, stdout, stderr) = bellyflop(&["solve", "--scenario", file.to_str().unwrap()]);
+        assert_eq!(code, 2, "{to}: {stderr}");
+        assert!(stdout.is_empty(), "{to}: {stdout}");
+        let want =
+            format!("error: {named} does not apply to a 6-DoF scenario (model = \"6dof\"): ");
+        assert!(stderr.starts_with(&want), "{to}: {stderr}");
+        assert!(
+            stderr.contains("(remove it, or set its default "),
+            "{stderr}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    // The flags override the file: the direct method, no refinement.
+    let (dir, file) = six_dof_file("6dof-settings-overridden", |t| {
+        let t = replace_line(t, "method = \"direct\"", "method = \"scvx\"");
+        replace_line(&t, "tolerance = 0.0", "tolerance = 1e-4")
+    });
+    let (code, stdout, stderr) = bellyflop(&[
+        "solve",
+        "--json",
+        "--scenario",
+        file.to_str().unwrap(),
+        "--method",
+        "direct",
+        "--mesh-tolerance",
+        "0",
+        "--nodes",
+        "12",
+        "--fast",
+        "--repeat",
+        "2",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect(&stderr);
+    assert!(code == 0 || code == 9, "exit {code}: {stderr}");
+    assert_eq!(v["model"], "6dof");
+    assert_eq!(v["nodes"], 12);
+    assert!(v["polish_iterations"].is_null(), "--fast: no polish");
+    assert_eq!(v["repeat"], 2);
+    let t = |k: &str| v[k].as_f64().unwrap();
+    assert!(
+        t("solve_time_min_ms") <= t("solve_time_ms")
+            && t("solve_time_ms") <= t("solve_time_max_ms"),
+        "{v}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

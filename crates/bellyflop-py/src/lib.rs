@@ -567,9 +567,14 @@ fn solve(
             mesh_tolerance,
         }
         .check()?;
+        // What is left of `method` and `mesh_tolerance` ("direct", 0) is
+        // what the 6-DoF solve does: they override the file's, as the
+        // CLI's flags do.
         let overrides = Overrides {
             nodes,
             intervals,
+            method: method.map(parse_method).transpose()?,
+            mesh_tolerance,
             fast,
             ..Overrides::default()
         };
@@ -591,7 +596,7 @@ fn solve(
         let start = Instant::now();
         let solution = s.solve(&mut bellyflop::method::observer::Silent)?;
         let propagation = report::propagate(&s.scenario, &solution, interpolation);
-        let v = report::solve_json(&s.scenario, &solution, &propagation);
+        let v = report::solve_json(&s.scenario, &solution, &propagation, &s.warnings);
         let core_ms = start.elapsed().as_secs_f64() * 1e3;
         // After the clock: the viewer's data is not part of the solve.
         let flown = propagation.as_ref().ok();

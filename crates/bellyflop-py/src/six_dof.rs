@@ -7,6 +7,10 @@ use std::time::Instant;
 
 use bellyflop::input::overrides::Overrides;
 use bellyflop::method::observer::Silent;
+use bellyflop::pipeline::six_dof::check_settings;
+use bellyflop::pipeline::six_dof::settings::{
+    DIRECT_ONLY, NO_FORMULATION, NO_INTERPOLATION, NO_REFINEMENT,
+};
 use bellyflop::problem::six_dof::start_state;
 use bellyflop::{Case, Method};
 use pyo3::exceptions::PyAttributeError;
@@ -26,62 +30,71 @@ pub struct Given<'a> {
     pub mesh_tolerance: Option<f64>,
 }
 
-/// `InputError` naming an argument that the 6-DoF solve does not take.
-fn not_applicable(field: &str, value: &str, why: &str) -> PyErr {
-    InputError::new_err(format!(
-        "{field} = {value} does not apply to a 6-DoF scenario (model = \"6dof\"): {why}"
-    ))
+/// `InputError` naming an argument that the 6-DoF solve does not take: the
+/// core crate's [`bellyflop::InputError::NotApplicable`], with its reason
+/// (the CLI gives the same for its flags) and what to pass instead.
+fn not_applicable(field: &str, value: String, why: &str, hint: &str) -> PyErr {
+    input_error(bellyflop::InputError::NotApplicable {
+        field: field.into(),
+        value,
+        reason: format!("{why} ({hint})"),
+    })
 }
 
 impl Given<'_> {
     /// `Err` naming the first argument that does not apply: a method other
     /// than the direct one, any formulation or interpolation (planar
-    /// only), a refinement tolerance other than 0.
+    /// only), a refinement tolerance other than 0 (the CLI refuses its
+    /// flags in the same order).
     pub fn check(&self) -> PyResult<()> {
         if let Some(m) = self.method.filter(|m| *m != Method::Direct.as_str()) {
+            let hint = "method = \"direct\" or None";
             return Err(not_applicable(
                 "method",
-                &format!("{m:?}"),
-                "it is solved by the direct method only (method = \"direct\" or None)",
+                format!("{m:?}"),
+                DIRECT_ONLY,
+                hint,
             ));
         }
         if let Some(f) = self.formulation {
+            let value = format!("{f:?}");
             return Err(not_applicable(
                 "formulation",
-                &format!("{f:?}"),
-                "the formulations are the planar model's (leave it None)",
+                value,
+                NO_FORMULATION,
+                "leave it None",
             ));
         }
         if let Some(i) = self.interpolation {
+            let value = format!("{i:?}");
             return Err(not_applicable(
                 "interpolation",
-                &format!("{i:?}"),
-                "its controls are flown as the collocation defines them, the thrust and gimbal angles linear (leave it None)",
+                value,
+                NO_INTERPOLATION,
+                "leave it None",
             ));
         }
         if let Some(t) = self.mesh_tolerance.filter(|t| *t != 0.0) {
+            let hint = "leave it None or 0";
             return Err(not_applicable(
                 "mesh_tolerance",
-                &format!("{t}"),
-                "the 6-DoF solve does not refine its mesh (leave it None or 0)",
+                format!("{t:?}"),
+                NO_REFINEMENT,
+                hint,
             ));
         }
         Ok(())
     }
 }
 
-/// Solve the 6-DoF `case` with `overrides` (nodes, intervals, fast), as
-/// `bellyflop solve --json` does; the file's `solver.method` must be the
-/// direct one, as the CLI requires.
+/// Solve the 6-DoF `case` with `overrides` (nodes, intervals, fast, and the
+/// method and mesh tolerance that [`Given::check`] let through), as
+/// `bellyflop solve --json` does; the file's settings that the 6-DoF solve
+/// does not read must be at their defaults, its `solver.method` the direct
+/// one ([`check_settings`]), as the CLI requires.
 pub fn solve(py: Python<'_>, case: Case, overrides: Overrides) -> PyResult<SixDofSolution> {
     let s = overrides.apply(case).map_err(input_error)?;
-    if s.solver.method != Method::Direct {
-        return Err(not_applicable(
-            "solver.method",
-            &format!("{:?}", s.solver.method.as_str()),
-            "it is solved by the direct method only (solver.method = \"direct\", the default)",
-        ));
-    }
+    check_settings(&s.solver).map_err(input_error)?;
     let (value, core_ms) = detached(py, move || {
         let start = Instant::now();
         let sol = bellyflop::pipeline::six_dof::solve(
@@ -92,9 +105,7 @@ pub fn solve(py: Python<'_>, case: Case, overrides: Overrides) -> PyResult<SixDo
         );
         let mut v = sol.to_json();
         // As the CLI adds them (only when there are any).
-        if !s.warnings.is_empty() {
-            v["warnings"] = s.warnings.clone().into();
-        }
+        bellyflop::output::report::add_warnings(&mut v, &s.warnings);
         (v, start.elapsed().as_secs_f64() * 1e3)
     })?;
     Ok(SixDofSolution { value, core_ms })

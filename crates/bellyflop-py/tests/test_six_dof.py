@@ -124,19 +124,53 @@ def test_six_dof_out_of_plane_state(six_file):
         ({"mesh_tolerance": 1e-6}, "mesh_tolerance"),
     ],
 )
-def test_six_dof_refuses_planar_only_arguments(six_file, kwargs, field):
-    with pytest.raises(bellyflop.InputError, match=rf"^{field} = .* does not apply to a 6-DoF scenario"):
+def test_six_dof_refuses_planar_only_arguments(cli, six_file, kwargs, field):
+    with pytest.raises(bellyflop.InputError, match=rf"^{field} = .* does not apply to a 6-DoF scenario") as e:
         bellyflop.solve(six_file, **kwargs)
+    # The CLI's flag gives the same reason (its own hint in the last
+    # parentheses: `leave it out` for `leave it None`).
+    ((name, value),) = kwargs.items()
+    flag = "--" + name.replace("_", "-")
+    err = run_cli(cli, "solve", "--scenario", str(six_file), flag, str(value), check_codes=(2,)).stderr
+    reason = str(e.value).split(": ", 1)[1].rsplit(" (", 1)[0]
+    assert err.startswith(f"error: {flag} ") and reason in err, (err, reason)
 
 
 def test_six_dof_arguments_that_apply(six_file):
-    # method="direct" and mesh_tolerance=0 are what the 6-DoF solve does.
-    sol = bellyflop.solve(six_file, method="direct", mesh_tolerance=0.0, nodes=12, fast=True)
-    assert sol.nodes == 12 and sol.states["z_m"].shape == (13,)
+    # method="direct" and mesh_tolerance=0 are what the 6-DoF solve does:
+    # they override a file's other method and tolerance, as the CLI's flags.
     s = bellyflop.Scenario.from_toml(six_file).to_dict()
     s["solver"]["method"] = "scvx"
+    s["solver"]["refinement"]["tolerance"] = 1e-4
+    sol = bellyflop.solve(s, method="direct", mesh_tolerance=0.0, nodes=12, fast=True)
+    assert sol.nodes == 12 and sol.states["z_m"].shape == (13,)
     with pytest.raises(bellyflop.InputError, match=r"^solver\.method = \"scvx\" does not apply"):
         bellyflop.solve(s)
+
+
+@pytest.mark.parametrize(
+    "path,value,named",
+    [
+        (["formulation"], "vector", r'solver\.formulation = "vector"'),
+        (["refinement", "tolerance"], 1e-4, r"solver\.refinement\.tolerance = 0\.0001"),
+        (["polish_repairs"], 0, r"solver\.polish_repairs = 0"),
+        (["max_iterations"], 50, r"solver\.max_iterations = 50"),
+    ],
+)
+def test_six_dof_refuses_file_settings_it_would_ignore(cli, tmp_path, six_file, path, value, named):
+    # A [solver] setting that the 6-DoF solve does not read, at a value
+    # other than its default: refused by name, with the CLI's message.
+    s = bellyflop.Scenario.from_toml(six_file).to_dict()
+    table = s["solver"]
+    for key in path[:-1]:
+        table = table[key]
+    table[path[-1]] = value
+    with pytest.raises(bellyflop.InputError, match=rf"^{named} does not apply to a 6-DoF scenario") as e:
+        bellyflop.solve(s)
+    p = tmp_path / "six.toml"
+    p.write_text(bellyflop.Scenario.from_dict(s).to_toml())
+    err = run_cli(cli, "solve", "--scenario", str(p), check_codes=(2,)).stderr
+    assert err == f"error: {e.value}\n"
 
 
 def test_six_dof_pickle_round_trip(six):

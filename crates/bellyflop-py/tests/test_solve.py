@@ -194,6 +194,22 @@ def test_guesses_are_optional_and_clamped_with_a_warning():
         bellyflop.Scenario.from_dict(d)
 
 
+def test_to_dict_carries_the_cli_warnings(cli, paper, tmp_path):
+    # The paper's file at 105 t: its 110 t final-mass guess is clamped with
+    # a warning, which to_dict() carries as `solve --json` does (same key,
+    # same content); without one, neither has the key.
+    p = tmp_path / "clamped.toml"
+    p.write_text(_paper_toml_with("initial.mass_kg", "105000.0"))
+    sol = bellyflop.solve(p)
+    ref = cli_json(cli, "solve", "--json", "--scenario", str(p), check_codes=(0, 9))
+    warnings = sol.to_dict()["warnings"]
+    assert warnings == ref["warnings"] == bellyflop.Scenario.from_toml(p).warnings
+    assert len(warnings) == 1 and "final_mass_guess_kg = 110000" in warnings[0], warnings
+    assert sol.warnings == warnings
+    assert without_timing(sol.to_dict()) == without_timing(ref)
+    assert "warnings" not in paper.to_dict()  # test_equals_cli_json: nor the CLI's
+
+
 def test_certified_infeasible_is_a_status(cli, tmp_path):
     # From 100 m the descent cannot be stopped (README): a status, no exception.
     d = bellyflop.Scenario.paper().to_dict()

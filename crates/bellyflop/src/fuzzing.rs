@@ -132,7 +132,8 @@ fn rejected(e: InputError) -> Outcome {
         }
         InputError::Empty { field }
         | InputError::OutOfRange { field, .. }
-        | InputError::Inconsistent { field, .. } => {
+        | InputError::Inconsistent { field, .. }
+        | InputError::NotApplicable { field, .. } => {
             assert!(!field.is_empty() && msg.contains(field.as_str()), "{msg}");
         }
         InputError::ModelUnavailable { model, .. } => {

@@ -75,6 +75,33 @@ pub enum InputError {
     /// loop or a binding, refused rather than solved as planar.
     #[error("model = \"{model}\" is not yet available in {operation}: it solves and flies only the planar model (model = \"planar\"); the 6-DoF scenario is solved by the library's bellyflop::pipeline::six_dof::solve, from problem::six_dof::start_state of the scenario (`bellyflop solve` on the CLI)")]
     ModelUnavailable { model: ModelKind, operation: String },
+    /// A setting that the 6-DoF solve ([`crate::pipeline::six_dof::solve`])
+    /// does not read, given a value it would ignore: refused rather than
+    /// ignored ([`crate::pipeline::six_dof::check_settings`] for a scenario
+    /// file's, the CLI and the Python binding for their flags and
+    /// arguments). `field` is the setting as given (a scenario key such as
+    /// `solver.formulation`, a flag such as `--formulation`, a Python
+    /// argument), `value` its value as given, `reason` why it does not apply
+    /// and what does.
+    #[error(
+        "{} does not apply to a 6-DoF scenario (model = \"6dof\"): {reason}",
+        setting(field, value)
+    )]
+    NotApplicable {
+        field: String,
+        value: String,
+        reason: String,
+    },
+}
+
+/// `field` given `value` as the user wrote it: `--flag value` on the
+/// command line, else `key = value`.
+fn setting(field: &str, value: &str) -> String {
+    if field.starts_with("--") {
+        format!("{field} {value}")
+    } else {
+        format!("{field} = {value}")
+    }
 }
 
 /// A number as Rust prints it, but with an exponent when tiny or huge
@@ -187,6 +214,28 @@ mod tests {
         assert_eq!(
             e(f64::NAN).to_string(),
             "f = NaN is out of range: allowed [1, 2]"
+        );
+    }
+
+    /// A setting that does not apply names itself as it was given: a flag
+    /// as on the command line, a key as in the file.
+    #[test]
+    fn not_applicable_names_the_setting_as_given() {
+        let e = |field: &str, value: &str| {
+            InputError::NotApplicable {
+                field: field.into(),
+                value: value.into(),
+                reason: "why".into(),
+            }
+            .to_string()
+        };
+        assert_eq!(
+            e("--formulation", "paper"),
+            "--formulation paper does not apply to a 6-DoF scenario (model = \"6dof\"): why"
+        );
+        assert_eq!(
+            e("solver.formulation", "\"paper\""),
+            "solver.formulation = \"paper\" does not apply to a 6-DoF scenario (model = \"6dof\"): why"
         );
     }
 

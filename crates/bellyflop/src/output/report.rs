@@ -1,6 +1,7 @@
 //! The JSON object of one solve, as `bellyflop solve --json` prints it and
 //! the Python package's `Solution.to_dict()` returns it: the solution's own
-//! fields plus its landing precision (`landing_error`, `propagation`).
+//! fields plus its landing precision (`landing_error`, `propagation`), its
+//! mesh error (`mesh`) and the scenario's `warnings` ([`solve_json`]).
 
 use serde_json::{json, Value};
 
@@ -95,16 +96,28 @@ pub fn add_mesh_json(v: &mut Value, scenario: &Scenario, solution: &Solution) {
     };
 }
 
+/// The scenario's `warnings` ([`crate::Case::warnings`]: a guess clamped
+/// into its range) as the JSON's `warnings` list, only when there are any:
+/// the JSON of a file without warnings has no such key.
+pub fn add_warnings(v: &mut Value, warnings: &[String]) {
+    if !warnings.is_empty() {
+        v["warnings"] = warnings.into();
+    }
+}
+
 /// The whole `solve --json` object: [`Solution::to_json`] with the landing
-/// precision of `p` and the mesh error added.
+/// precision of `p`, the mesh error and the scenario's `warnings` added
+/// (the CLI adds `--repeat`'s timing fields to it, and nothing else).
 pub fn solve_json(
     scenario: &Scenario,
     solution: &Solution,
     p: &Result<Propagation, IntegrationError>,
+    warnings: &[String],
 ) -> Value {
     let mut v = solution.to_json();
     add_landing_json(&mut v, p);
     add_mesh_json(&mut v, scenario, solution);
+    add_warnings(&mut v, warnings);
     v
 }
 

@@ -37,6 +37,9 @@ use crate::verify::flight;
 use crate::verify::ode::Dop853;
 use crate::verify::path;
 
+pub mod settings;
+pub use settings::check_settings;
+
 /// How far a control may stand beyond its bound, as a fraction of the
 /// bound's scale: rounding (as the planar check's
 /// [`path::CONTROL_TOLERANCE`]).
@@ -118,7 +121,10 @@ pub struct SixDofSolution {
 /// docs): the direct method's cold solve with `settings.direct`, on the
 /// scenario's mesh, from its t_f and final-mass guesses; then, unless
 /// `settings.polish` is off, the 6-DoF polish ([`polish::six_dof`]) of its
-/// controls; then the check of the controls as published, flown.
+/// controls; then the check of the controls as published, flown, against
+/// the scenario's landing tolerances. It reads no other setting:
+/// [`check_settings`] refuses those that would be ignored (the CLI and the
+/// Python binding call it before solving).
 pub fn solve(
     scenario: &Scenario,
     x0: [f64; NX],
