@@ -1,11 +1,11 @@
 //! The 6-DoF solve of a scenario (issue 38): the direct method's cold solve
-//! of the 6-DoF transcription, then the check of its controls as flown,
-//! with statuses that are claims as in the planar pipeline.
+//! of the 6-DoF transcription, the 6-DoF polish of its controls as flown
+//! ([`polish::six_dof`]), then the check of the published controls as
+//! flown, with statuses that are claims as in the planar pipeline.
 //!
-//! The answer is raw collocation: there is no 6-DoF polish yet. Its
-//! controls fly as the references fly them ([`flight::collocation_controls`]:
-//! the thrust linear between the collocation times, each gimbal angle
-//! linear between the nodes at its secant rate), re-integrated by DOP853 at
+//! The controls fly as the references fly them ([`flight::collocation_controls`]:
+//! the thrust linear between the node times, each gimbal angle linear
+//! between the nodes at its secant rate), re-integrated by DOP853 at
 //! 1e-10 with steps of at most [`path::STEP_S`]. A `solved` answer must:
 //!
 //! - land within the scenario's tolerances (`solver.landing_position_tolerance_m`,
@@ -18,10 +18,10 @@
 //!   inside the (convex) nozzle cone, and each interval's secant rate is
 //!   checked against the rate disc.
 //!
-//! Otherwise a converged answer is `inaccurate`, with the reason. At the
-//! usual N = 20 the raw answers miss the pad by metres (BENCHMARKS.md,
-//! "Issue 38"), so `inaccurate` is the honest status of most of them
-//! until the polish exists.
+//! Otherwise a converged answer is `inaccurate`, with the reason: at the
+//! usual N = 20 the raw answers miss the pad by metres, and where the
+//! polish does not converge the raw answer is published with its flown
+//! miss and the polish's reason (BENCHMARKS.md, "Issue 38").
 
 use serde::Serialize;
 
