@@ -67,7 +67,9 @@ pub struct SolveArgs {
     #[arg(long, value_enum)]
     pub interpolation: Option<landing::InterpolationArg>,
     /// Write trajectory.csv, solution.json, the plots (SVG and PNG) and
-    /// viewer.html (the solve, to play in a browser) into DIR.
+    /// viewer.html (the solve, to play in a browser) into DIR; for a 6-DoF
+    /// scenario, solution.json, trajectory.csv and its plots (path and
+    /// histories; no viewer yet).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Solve R times in this process and report the median solve time (and

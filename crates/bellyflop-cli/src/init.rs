@@ -498,8 +498,9 @@ pub fn template(case: &Case) -> String {
         out.push_str(
             "# bellyflop scenario, written by `bellyflop init --model 6dof`: the paper's case\n\
              # (Chen, Ma, Wang, Su, Mathematics 2023, 11, 288) as a 6-DoF scenario, its\n\
-             # out-of-plane fields at 0. `bellyflop solve` does not solve the 6-DoF model yet;\n\
-             # the library does (problem::six_dof::start_state, method::direct::six_dof).\n\
+             # out-of-plane fields at 0. Solve it with `bellyflop solve --scenario FILE` (the\n\
+             # direct method, then the 6-DoF polish). A [solver] setting that only the planar\n\
+             # model reads is refused at a value other than its default.\n\
              # Every value is checked against the range given; units are in the key names\n\
              # and comments. Ranges: [a, b] includes both ends, (a, b) excludes them.\n",
         );

@@ -146,12 +146,12 @@ pub fn solve(
     let tf_s = nlp.tf_s(&r.w);
     let (states, controls) = nlp.physical_answer(&r.w);
     let states: Vec<[f64; NX]> = states
-        .chunks(NX)
-        .map(|s| s.try_into().expect("NX per node"))
+        .chunks_exact(NX)
+        .map(|s| std::array::from_fn(|i| s[i]))
         .collect();
     let controls: Vec<[f64; NU]> = controls
-        .chunks(NU)
-        .map(|u| u.try_into().expect("NU per point"))
+        .chunks_exact(NU)
+        .map(|u| std::array::from_fn(|j| u[j]))
         .collect();
     let raw = Controls6 {
         tf_s,
