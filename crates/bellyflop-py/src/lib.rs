@@ -629,7 +629,9 @@ fn sim(
         move || -> Result<(Value, Value), bellyflop::InputError> {
             let f = c.fly(&s, seed, run, true)?;
             let outcome = c.outcome(&f);
-            let flight = report::flight_json(&f, outcome, seed, run, &c);
+            let mut flight = report::flight_json(&f, outcome, seed, run, &c);
+            // As `sim --json` (the CLI adds them before its viewer too).
+            report::add_warnings(&mut flight, &s.warnings);
             let trace: serde_json::Map<String, Value> = report::TRACE_COLUMNS
                 .iter()
                 .zip(report::trace_columns(&f))

@@ -58,6 +58,27 @@ def test_sim_equals_cli(cli):
     assert f.row["run"] == 2 and f.row["fuel_kg"] == ref["fuel_kg"]
 
 
+def test_sim_carries_the_cli_warnings(cli, tmp_path):
+    # As solve's to_dict() (test_solve): the paper's file at 105 t has its
+    # 110 t final-mass guess clamped with a warning, which Flight.to_dict()
+    # carries as `sim --json` does (same key, same content).
+    lines, section = [], None
+    for line in bellyflop.Scenario.paper().to_toml().splitlines():
+        if line.startswith("["):
+            section = line.strip("[] ")
+        if section == "initial" and line.split("=")[0].strip() == "mass_kg":
+            line = "mass_kg = 105000.0"
+        lines.append(line)
+    p = tmp_path / "clamped.toml"
+    p.write_text("\n".join(lines) + "\n")
+    f = bellyflop.sim(p, seed=3, run=2)
+    ref = cli_json(cli, "sim", "--scenario", str(p), "--seed", "3", "--run", "2", "--json", check_codes=(0, 7, 8))
+    warnings = f.to_dict()["warnings"]
+    assert warnings == ref["warnings"] == bellyflop.Scenario.from_toml(p).warnings
+    assert len(warnings) == 1 and "final_mass_guess_kg = 110000" in warnings[0], warnings
+    assert "warnings" not in bellyflop.sim(seed=3, run=2).to_dict()
+
+
 def test_campaign_whatever_the_executor(cli, tmp_path):
     runs, seed = 6, 5
     text, summary = cli_campaign(cli, tmp_path, runs, seed)
