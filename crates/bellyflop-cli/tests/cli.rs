@@ -376,12 +376,7 @@ fn bad_input_messages_name_the_problem() {
 /// written, and no solve started. `solve` solves it (the next test).
 #[test]
 fn a_six_dof_scenario_is_refused_not_solved_as_planar() {
-    let dir = std::env::temp_dir().join(format!("bellyflop-cli-6dof-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("six.toml");
-    let (code, _, stderr) =
-        bellyflop(&["init", "--force", "--model", "6dof", file.to_str().unwrap()]);
-    assert_eq!(code, 0, "{stderr}");
+    let (dir, file) = six_dof_file("6dof", str::to_string);
     let text = std::fs::read_to_string(&file).unwrap();
     let case =
         bellyflop::Case::from_toml_str(&text).expect("init --model 6dof writes a valid file");
@@ -427,12 +422,7 @@ fn a_six_dof_scenario_is_refused_not_solved_as_planar() {
 /// SCvx method, planar only, is refused.
 #[test]
 fn solve_solves_a_six_dof_scenario() {
-    let dir = std::env::temp_dir().join(format!("bellyflop-cli-6dof-solve-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("six.toml");
-    let (code, _, stderr) =
-        bellyflop(&["init", "--force", "--model", "6dof", file.to_str().unwrap()]);
-    assert_eq!(code, 0, "{stderr}");
+    let (dir, file) = six_dof_file("6dof-solve", str::to_string);
     let path = file.to_str().unwrap();
     let out = dir.join("out");
     let (code, stdout, stderr) = bellyflop(&[
